@@ -1,0 +1,58 @@
+// NFF reader and writer (Neutral File Format, SPD 3.14).
+//
+// Place in the data flow: file -> read_nff -> Scene -> (make_database, or
+// write_nff back to a file). The reader is a token-stream parser, as
+// ../shared/scenes/NFF-NOTES.md advises (SPD writes `c` on one line, the
+// format document on three). `.nff.gz` is decompressed transparently (zlib).
+#pragma once
+
+#include <iosfwd>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+#include "core/scene.h"
+
+namespace raynode::core {
+
+/// A malformed scene file. what() is "file:line:col: message" (1-based line
+/// and column of the offending token, or of the end of input when truncated).
+class ParseError : public std::runtime_error {
+ public:
+  ParseError(std::string file, int line, int column, const std::string& message);
+  const std::string& file() const { return file_; }
+  int line() const { return line_; }
+  int column() const { return column_; }
+  /// The message without the location prefix.
+  const std::string& message() const { return message_; }
+
+ private:
+  std::string file_;
+  int line_;
+  int column_;
+  std::string message_;
+};
+
+/// Reads an NFF scene from `path` (`.nff`, or gzip-compressed: detected by
+/// content, so `.nff.gz` works whatever its name). Zero-area polygons are
+/// dropped and counted in Scene::dropped_degenerate.
+/// Throws ParseError on malformed input (unknown keyword, missing or
+/// non-finite number, fewer than 3 vertices, truncated file) and
+/// std::runtime_error ("cannot open ...") when the file cannot be read.
+Scene read_nff(const std::string& path);
+
+/// Parses NFF text held in memory; `name` is used in error locations.
+Scene parse_nff(std::string_view text, const std::string& name = "<string>");
+
+/// Writes `scene` as NFF text, in the layout SPD 3.14 writes (`b`, `v` block,
+/// lights, then materials and primitives in file order; numbers in `%g`
+/// with enough digits to round-trip floats). read_nff(write_nff(s)) == s for
+/// every scene read_nff produces.
+void write_nff(std::ostream& out, const Scene& scene);
+
+/// Writes to a file; `.gz` suffix writes gzip. Writes to a temporary name
+/// and renames, so a failure leaves no half-written file. Throws
+/// std::runtime_error on I/O failure.
+void write_nff_file(const std::string& path, const Scene& scene);
+
+}  // namespace raynode::core
