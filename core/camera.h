@@ -1,0 +1,62 @@
+// Pinhole camera from the NFF view block (../shared/scenes/NFF-NOTES.md,
+// "The view block"): w = normalize(at - from), u = normalize(w x up)
+// (screen right), v = u x w (screen up), right-handed. `angle` is the full
+// field of view between the centres of the first and last pixel columns;
+// pixels are square, so the vertical spacing equals the horizontal one.
+//
+// Place in the data flow: Database::view (+ --width/--height) -> Camera ->
+// primary rays for every mode.
+#pragma once
+
+#include <cmath>
+#include <stdexcept>
+
+#include "core/math.h"
+#include "core/scene.h"
+
+namespace raynode::core {
+
+class Camera {
+ public:
+  /// Throws std::invalid_argument when from == at, up is parallel to the
+  /// view direction, the angle is not in (0, 180) degrees, or the
+  /// resolution is not positive.
+  Camera(const View& view, int width, int height) : origin_(view.from), width_(width), height_(height) {
+    if (width < 1 || height < 1)
+      throw std::invalid_argument("image resolution must be positive, got " + std::to_string(width) + "x" +
+                                  std::to_string(height));
+    const Vec3 dir = view.at - view.from;
+    if (!(dot(dir, dir) > 0.0f)) throw std::invalid_argument("view 'from' and 'at' are the same point");
+    w_ = normalize(dir);
+    const Vec3 right = cross(w_, view.up);
+    if (!(length(right) > 1e-6f * length(view.up)))
+      throw std::invalid_argument("view 'up' is parallel to the viewing direction");
+    u_ = normalize(right);
+    v_ = cross(u_, w_);
+    if (!(view.angle > 0.0f && view.angle < 180.0f))
+      throw std::invalid_argument("view angle must be in (0, 180) degrees");
+    const double half = std::tan(double(view.angle) * 3.14159265358979323846 / 360.0);
+    const int n = width > 1 ? width - 1 : 1;
+    spacing_ = float(2.0 * half / n);
+  }
+
+  /// Ray through image position (px, py) in pixels: (0,0) is the top-left
+  /// corner of the image, (i + 0.5, j + 0.5) the centre of pixel column i,
+  /// row j. The direction is unit length, tmin 0.
+  Ray ray_through(float px, float py) const {
+    const float x = (px - 0.5f * float(width_)) * spacing_;
+    const float y = (0.5f * float(height_) - py) * spacing_;
+    return Ray{origin_, normalize(w_ + u_ * x + v_ * y), 0.0f, kInfinity};
+  }
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  const Vec3& origin() const { return origin_; }
+
+ private:
+  Vec3 origin_, u_, v_, w_;
+  float spacing_ = 0.0f;
+  int width_, height_;
+};
+
+}  // namespace raynode::core

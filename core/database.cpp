@@ -1,0 +1,215 @@
+#include "core/database.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace raynode::core {
+
+Bounds3 Primitive::bounds() const {
+  Bounds3 b;
+  switch (kind) {
+    case PrimitiveKind::kTriangle:
+      b.extend(vertex(0));
+      b.extend(vertex(1));
+      b.extend(vertex(2));
+      break;
+    case PrimitiveKind::kSphere: {
+      const float r = std::fabs(radius());
+      b.extend(center() - Vec3{r, r, r});
+      b.extend(center() + Vec3{r, r, r});
+      break;
+    }
+    case PrimitiveKind::kCone: {
+      const float rb = std::fabs(cone_base_radius()), ra = std::fabs(cone_apex_radius());
+      b.extend(cone_base() - Vec3{rb, rb, rb});
+      b.extend(cone_base() + Vec3{rb, rb, rb});
+      b.extend(cone_apex() - Vec3{ra, ra, ra});
+      b.extend(cone_apex() + Vec3{ra, ra, ra});
+      break;
+    }
+  }
+  return b;
+}
+
+DatabaseCounts Database::counts() const {
+  DatabaseCounts c;
+  for (const Primitive& p : primitives) {
+    switch (p.kind) {
+      case PrimitiveKind::kTriangle: ++c.triangles; break;
+      case PrimitiveKind::kSphere: ++c.spheres; break;
+      case PrimitiveKind::kCone: ++c.cones; break;
+    }
+  }
+  c.vertex_normal_sets = vertex_normals.size();
+  return c;
+}
+
+std::size_t Database::bytes() const {
+  return primitives.size() * sizeof(Primitive) + vertex_normals.size() * sizeof(TriangleNormals) +
+         materials.size() * sizeof(Material);
+}
+
+namespace {
+
+// Twice the signed area of the 2D triangle (a, b, c), in double.
+double orient2d(const double* a, const double* b, const double* c) {
+  return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+}
+
+bool triangle_area_is_zero(const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 v[3] = {a, b, c};
+  return is_degenerate_polygon(v, 3);
+}
+
+}  // namespace
+
+void triangulate_polygon(const Vec3* verts, std::uint32_t n, std::vector<std::uint32_t>& out,
+                         bool drop_degenerate) {
+  if (n < 3) return;
+  auto emit = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+    if (drop_degenerate && triangle_area_is_zero(verts[a], verts[b], verts[c])) return;
+    out.push_back(a);
+    out.push_back(b);
+    out.push_back(c);
+  };
+  if (n == 3) {
+    emit(0, 1, 2);
+    return;
+  }
+  // Newell normal picks the projection plane and the polygon's orientation.
+  double nrm[3] = {0, 0, 0};
+  for (std::uint32_t i = 0; i < n; ++i) {
+    const Vec3& a = verts[i];
+    const Vec3& b = verts[(i + 1) % n];
+    nrm[0] += (double(a.y) - b.y) * (double(a.z) + b.z);
+    nrm[1] += (double(a.z) - b.z) * (double(a.x) + b.x);
+    nrm[2] += (double(a.x) - b.x) * (double(a.y) + b.y);
+  }
+  int drop = 0;
+  if (std::fabs(nrm[1]) > std::fabs(nrm[drop])) drop = 1;
+  if (std::fabs(nrm[2]) > std::fabs(nrm[drop])) drop = 2;
+  const int ax = (drop + 1) % 3, ay = (drop + 2) % 3;
+  // Project so that the polygon is counter-clockwise in 2D.
+  const double sign = nrm[drop] >= 0 ? 1.0 : -1.0;
+  std::vector<double> p(2 * n);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    p[2 * i] = verts[i][ax];
+    p[2 * i + 1] = sign * verts[i][ay];
+  }
+  std::vector<std::uint32_t> idx(n);
+  for (std::uint32_t i = 0; i < n; ++i) idx[i] = i;
+
+  // Eberly's ear clipping, O(n^2): an ear is a convex corner whose triangle
+  // contains no other remaining vertex. Collinear corners are clipped as
+  // (dropped) zero-area ears.
+  std::size_t guard = 0;
+  std::size_t i = 0;
+  while (idx.size() > 3) {
+    const std::size_t m = idx.size();
+    const std::uint32_t ia = idx[(i + m - 1) % m], ib = idx[i % m], ic = idx[(i + 1) % m];
+    const double* a = &p[2 * ia];
+    const double* b = &p[2 * ib];
+    const double* c = &p[2 * ic];
+    bool ear = orient2d(a, b, c) >= 0;
+    if (ear) {
+      for (std::size_t k = 0; k < m && ear; ++k) {
+        const std::uint32_t j = idx[k];
+        if (j == ia || j == ib || j == ic) continue;
+        const double* q = &p[2 * j];
+        // Inside or on the boundary of the ear (strictly excluding the ear's corners).
+        if (orient2d(a, b, q) >= 0 && orient2d(b, c, q) >= 0 && orient2d(c, a, q) >= 0) {
+          // A vertex coinciding with a corner (polygons that touch themselves) does not block.
+          if (!((q[0] == a[0] && q[1] == a[1]) || (q[0] == b[0] && q[1] == b[1]) ||
+                (q[0] == c[0] && q[1] == c[1])))
+            ear = false;
+        }
+      }
+    }
+    if (ear) {
+      emit(ia, ib, ic);
+      idx.erase(idx.begin() + static_cast<std::ptrdiff_t>(i % m));
+      guard = 0;
+      if (i >= idx.size()) i = 0;
+      continue;
+    }
+    ++i;
+    if (++guard > idx.size()) {
+      // No ear found (self-intersecting or numerically tricky input): fall
+      // back to a fan over what remains so that no area is lost.
+      for (std::size_t k = 1; k + 1 < idx.size(); ++k) emit(idx[0], idx[k], idx[k + 1]);
+      return;
+    }
+  }
+  emit(idx[0], idx[1], idx[2]);
+}
+
+Database make_database(const Scene& scene, const DatabaseParams& params) {
+  Database db;
+  db.materials = scene.materials;
+  if (db.materials.empty()) db.materials.push_back(Material{});
+  db.lights = scene.lights;
+  db.view = scene.view;
+  db.has_view = scene.has_view;
+  db.background = scene.background;
+  db.shape_count = scene.shapes.size();
+  db.primitives.reserve(scene.shapes.size());
+
+  std::vector<std::uint32_t> tris;
+  for (std::size_t si = 0; si < scene.shapes.size(); ++si) {
+    const Shape& s = scene.shapes[si];
+    Primitive prim;
+    prim.material = s.material;
+    prim.shape = static_cast<std::uint32_t>(si);
+    switch (s.kind) {
+      case ShapeKind::kPolygon:
+      case ShapeKind::kPatch: {
+        const Vec3* v = &scene.vertices[s.first];
+        tris.clear();
+        triangulate_polygon(v, s.count, tris, params.drop_degenerate);
+        db.dropped_degenerate_triangles += (s.count - 2) - tris.size() / 3;
+        prim.kind = PrimitiveKind::kTriangle;
+        for (std::size_t t = 0; t < tris.size(); t += 3) {
+          for (int k = 0; k < 3; ++k) {
+            const Vec3& p = v[tris[t + k]];
+            prim.data[3 * k] = p.x;
+            prim.data[3 * k + 1] = p.y;
+            prim.data[3 * k + 2] = p.z;
+          }
+          if (s.kind == ShapeKind::kPatch) {
+            TriangleNormals tn;
+            for (int k = 0; k < 3; ++k) tn.n[k] = scene.normals[s.first_normal + tris[t + k]];
+            prim.normals = static_cast<std::uint32_t>(db.vertex_normals.size());
+            db.vertex_normals.push_back(tn);
+          }
+          db.primitives.push_back(prim);
+        }
+        break;
+      }
+      case ShapeKind::kSphere: {
+        const Sphere& sp = scene.spheres[s.first];
+        prim.kind = PrimitiveKind::kSphere;
+        prim.data[0] = sp.center.x;
+        prim.data[1] = sp.center.y;
+        prim.data[2] = sp.center.z;
+        prim.data[3] = sp.radius;
+        db.primitives.push_back(prim);
+        break;
+      }
+      case ShapeKind::kCone: {
+        const Cone& c = scene.cones[s.first];
+        prim.kind = PrimitiveKind::kCone;
+        const float d[8] = {c.base.x, c.base.y, c.base.z, c.base_radius,
+                            c.apex.x, c.apex.y, c.apex.z, c.apex_radius};
+        for (int k = 0; k < 8; ++k) prim.data[k] = d[k];
+        db.primitives.push_back(prim);
+        break;
+      }
+    }
+    if (db.primitives.size() >= kNoPrimitive)
+      throw std::invalid_argument("scene has more than 2^32-2 primitives");
+  }
+  for (const Primitive& p : db.primitives) db.bounds.extend(p.bounds());
+  return db;
+}
+
+}  // namespace raynode::core

@@ -1,0 +1,171 @@
+// Ray/primitive intersection tests: watertight triangles, spheres, open cones.
+//
+// Place in the data flow: the grid traversal (traverse.h) calls these for
+// each primitive of each cell it visits; the Embree oracle calls the cone
+// test for its user geometry. All tests are two-sided (facing is the
+// shader's business) and report a hit only for t in the open interval
+// (ray.tmin, tmax).
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+#include "core/database.h"
+#include "core/math.h"
+
+namespace raynode::core {
+
+/// Per-ray constants of the watertight triangle test (Woop, Benthin, Wald,
+/// "Watertight Ray/Triangle Intersection", JCGT 2(1), 2013): the axis of the
+/// largest direction component becomes z, and the shear that maps the
+/// direction onto +z.
+struct WatertightRay {
+  int kx = 0, ky = 1, kz = 2;
+  float sx = 0, sy = 0, sz = 1;
+
+  explicit WatertightRay(const Vec3& dir) {
+    const Vec3 a = abs(dir);
+    kz = (a.x > a.y) ? (a.x > a.z ? 0 : 2) : (a.y > a.z ? 1 : 2);
+    kx = (kz + 1) % 3;
+    ky = (kx + 1) % 3;
+    if (dir[kz] < 0.0f) {  // keep the winding: swap x and y
+      const int t = kx;
+      kx = ky;
+      ky = t;
+    }
+    sx = dir[kx] / dir[kz];
+    sy = dir[ky] / dir[kz];
+    sz = 1.0f / dir[kz];
+  }
+};
+
+/// Result of a triangle test: distance and barycentrics (p = u*v1 + v*v2 + (1-u-v)*v0).
+struct TriangleHit {
+  float t, u, v;
+};
+
+/// Watertight ray/triangle test (Woop et al. 2013). A ray through a shared
+/// edge or vertex of a closed mesh hits at least one of the triangles: edge
+/// functions that come out exactly zero are recomputed in double. Degenerate
+/// (zero-area) triangles never hit. Returns true with `hit` when
+/// ray.tmin < t < tmax.
+inline bool intersect_triangle(const Ray& ray, const WatertightRay& w, const Vec3& v0, const Vec3& v1,
+                               const Vec3& v2, float tmax, TriangleHit& hit) {
+  const Vec3 a = v0 - ray.origin, b = v1 - ray.origin, c = v2 - ray.origin;
+  const float ax = a[w.kx] - w.sx * a[w.kz], ay = a[w.ky] - w.sy * a[w.kz];
+  const float bx = b[w.kx] - w.sx * b[w.kz], by = b[w.ky] - w.sy * b[w.kz];
+  const float cx = c[w.kx] - w.sx * c[w.kz], cy = c[w.ky] - w.sy * c[w.kz];
+  float u = cx * by - cy * bx;
+  float v = ax * cy - ay * cx;
+  float e = bx * ay - by * ax;
+  if (u == 0.0f || v == 0.0f || e == 0.0f) {
+    u = static_cast<float>(double(cx) * by - double(cy) * bx);
+    v = static_cast<float>(double(ax) * cy - double(ay) * cx);
+    e = static_cast<float>(double(bx) * ay - double(by) * ax);
+  }
+  if ((u < 0.0f || v < 0.0f || e < 0.0f) && (u > 0.0f || v > 0.0f || e > 0.0f)) return false;
+  const float det = u + v + e;
+  if (det == 0.0f) return false;
+  const float az = w.sz * a[w.kz], bz = w.sz * b[w.kz], cz = w.sz * c[w.kz];
+  const float t_scaled = u * az + v * bz + e * cz;
+  const float inv_det = 1.0f / det;
+  const float t = t_scaled * inv_det;
+  if (!(t > ray.tmin && t < tmax)) return false;
+  hit.t = t;
+  hit.u = v * inv_det;  // weight of v1
+  hit.v = e * inv_det;  // weight of v2
+  return true;
+}
+
+/// Ray/sphere test in double precision with the numerically stable quadratic
+/// (Haines, Guenther, Akenine-Moeller, "Precision Improvements for
+/// Ray/Sphere Intersection", Ray Tracing Gems ch. 7, 2019). Negative radii
+/// are treated by their magnitude. Returns the nearest t in (ray.tmin, tmax).
+inline bool intersect_sphere(const Ray& ray, const Vec3& center, float radius, float tmax, float& t_out) {
+  const double fx = double(ray.origin.x) - center.x, fy = double(ray.origin.y) - center.y,
+               fz = double(ray.origin.z) - center.z;
+  const double dx = ray.direction.x, dy = ray.direction.y, dz = ray.direction.z;
+  const double a = dx * dx + dy * dy + dz * dz;
+  const double b = -(fx * dx + fy * dy + fz * dz);  // -b/2 of the usual form
+  const double s = b / a;
+  const double lx = fx + s * dx, ly = fy + s * dy, lz = fz + s * dz;  // closest point - center
+  const double r = double(radius);
+  const double disc = a * (r * r - (lx * lx + ly * ly + lz * lz));
+  if (disc < 0.0) return false;
+  const double c = fx * fx + fy * fy + fz * fz - r * r;
+  const double q = b + std::copysign(std::sqrt(disc), b);
+  double t0 = (q != 0.0) ? c / q : 0.0, t1 = q / a;
+  if (t0 > t1) std::swap(t0, t1);
+  if (q == 0.0) t0 = t1;
+  const double lo = ray.tmin, hi = tmax;
+  if (t0 > lo && t0 < hi) {
+    t_out = static_cast<float>(t0);
+    return t_out > ray.tmin && t_out < tmax;
+  }
+  if (t1 > lo && t1 < hi) {
+    t_out = static_cast<float>(t1);
+    return t_out > ray.tmin && t_out < tmax;
+  }
+  return false;
+}
+
+/// Ray test against an open cone or cylinder (no caps) from `base` (radius
+/// rb) to `apex` (radius ra), in double precision. Radii are taken by
+/// magnitude. Returns the nearest t in (ray.tmin, tmax) whose point lies
+/// between the two end planes.
+inline bool intersect_cone(const Ray& ray, const Vec3& base, float rb_in, const Vec3& apex, float ra_in,
+                           float tmax, float& t_out) {
+  const double rb = std::fabs(double(rb_in)), ra = std::fabs(double(ra_in));
+  double w[3] = {double(apex.x) - base.x, double(apex.y) - base.y, double(apex.z) - base.z};
+  const double h = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+  if (!(h > 0.0)) return false;
+  for (double& x : w) x /= h;
+  const double o[3] = {double(ray.origin.x) - base.x, double(ray.origin.y) - base.y,
+                       double(ray.origin.z) - base.z};
+  const double d[3] = {ray.direction.x, ray.direction.y, ray.direction.z};
+  const double ow = o[0] * w[0] + o[1] * w[1] + o[2] * w[2];
+  const double dw = d[0] * w[0] + d[1] * w[1] + d[2] * w[2];
+  double op[3], dp[3];
+  for (int i = 0; i < 3; ++i) {
+    op[i] = o[i] - ow * w[i];
+    dp[i] = d[i] - dw * w[i];
+  }
+  const double k = (ra - rb) / h;   // radius change per unit along the axis
+  const double r0 = rb + k * ow;    // radius at the origin's axial position
+  const double qa = dp[0] * dp[0] + dp[1] * dp[1] + dp[2] * dp[2] - k * k * dw * dw;
+  const double qb = 2.0 * (op[0] * dp[0] + op[1] * dp[1] + op[2] * dp[2] - k * r0 * dw);
+  const double qc = op[0] * op[0] + op[1] * op[1] + op[2] * op[2] - r0 * r0;
+  double roots[2];
+  int nroots = 0;
+  const double scale = std::fabs(qb) + std::fabs(qc) + 1e-300;
+  if (std::fabs(qa) <= 1e-12 * scale) {
+    if (qb == 0.0) return false;
+    roots[nroots++] = -qc / qb;
+  } else {
+    const double disc = qb * qb - 4.0 * qa * qc;
+    if (disc < 0.0) return false;
+    const double q = -0.5 * (qb + std::copysign(std::sqrt(disc), qb));
+    double t0 = q / qa, t1 = (q != 0.0) ? qc / q : t0;
+    if (t0 > t1) std::swap(t0, t1);
+    roots[nroots++] = t0;
+    roots[nroots++] = t1;
+  }
+  for (int i = 0; i < nroots; ++i) {
+    const double t = roots[i];
+    if (!(t > ray.tmin && t < tmax)) continue;
+    const double s = ow + t * dw;  // axial position of the hit
+    if (s < 0.0 || s > h) continue;
+    if (rb + k * s < 0.0) continue;  // the other nappe of a cone
+    const float tf = static_cast<float>(t);
+    if (!(tf > ray.tmin && tf < tmax)) continue;
+    t_out = tf;
+    return true;
+  }
+  return false;
+}
+
+/// Geometric (unnormalised, not face-forwarded) normal of primitive `p` at
+/// world point `hit_point`.
+Vec3 geometric_normal(const Primitive& p, const Vec3& hit_point);
+
+}  // namespace raynode::core

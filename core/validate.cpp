@@ -1,0 +1,199 @@
+#include "core/validate.h"
+
+#include <cmath>
+#include <random>
+
+#include "core/camera.h"
+#include "core/direct_view.h"
+#include "core/intersect.h"
+
+namespace raynode::core {
+
+ValidateCounts& ValidateCounts::operator+=(const ValidateCounts& o) {
+  rays += o.rays;
+  grid_hits += o.grid_hits;
+  embree_hits += o.embree_hits;
+  hit_vs_miss += o.hit_vs_miss;
+  miss_vs_hit += o.miss_vs_hit;
+  t_mismatch += o.t_mismatch;
+  other_primitive += o.other_primitive;
+  any_hit_mismatch += o.any_hit_mismatch;
+  max_t_rel_error = std::max(max_t_rel_error, o.max_t_rel_error);
+  return *this;
+}
+
+namespace {
+
+class Checker {
+ public:
+  Checker(const Database& db, const Grid& grid, const EmbreeScene& embree, const ValidateParams& p,
+          ValidateReport& report)
+      : view_(db, grid), embree_(embree), params_(p), report_(report) {
+    diag_ = db.bounds.empty() ? 1.0f : length(db.bounds.extent());
+  }
+
+  /// Compares one closest-hit query; returns the grid's hit.
+  Hit check(const char* set, const Ray& ray, ValidateCounts& c, bool also_any) {
+    Hit g, e;
+    const bool hg = intersect_closest(view_, ray, g, scratch_);
+    const bool he = embree_.intersect_closest(ray, e);
+    ++c.rays;
+    c.grid_hits += hg;
+    c.embree_hits += he;
+    bool bad = false;
+    if (hg && !he) {
+      ++c.hit_vs_miss;
+      bad = true;
+    } else if (!hg && he) {
+      ++c.miss_vs_hit;
+      bad = true;
+    } else if (hg && he) {
+      const double tm = std::max(std::fabs(double(g.t)), std::fabs(double(e.t)));
+      const double err = std::fabs(double(g.t) - double(e.t));
+      if (tm > 0) c.max_t_rel_error = std::max(c.max_t_rel_error, err / tm);
+      if (err > params_.t_rel * tm + 1e-6 * diag_) {
+        ++c.t_mismatch;
+        bad = true;
+      } else if (g.primitive != e.primitive) {
+        ++c.other_primitive;
+      }
+    }
+    if (also_any) {
+      const bool ag = intersect_any(view_, ray, scratch_);
+      const bool ae = embree_.intersect_any(ray);
+      // The any-hit answer must agree with the closest-hit answer of the
+      // same structure and with the other structure.
+      if (ag != ae || ag != hg) {
+        ++c.any_hit_mismatch;
+        bad = true;
+      }
+    }
+    if (bad && report_.examples.size() < params_.max_examples) report_.examples.push_back({set, ray, g, e});
+    return g;
+  }
+
+  const DirectView& view() const { return view_; }
+  TraversalStats stats() const { return scratch_.stats; }
+
+ private:
+  DirectView view_;
+  const EmbreeScene& embree_;
+  const ValidateParams& params_;
+  ValidateReport& report_;
+  TraversalScratch scratch_;
+  float diag_ = 1.0f;
+};
+
+Vec3 random_unit(std::mt19937_64& rng) {
+  std::normal_distribution<float> n(0.0f, 1.0f);
+  for (;;) {
+    const Vec3 v{n(rng), n(rng), n(rng)};
+    const float l = length(v);
+    if (l > 1e-6f) return v * (1.0f / l);
+  }
+}
+
+Vec3 random_point_on(const Primitive& p, std::mt19937_64& rng) {
+  std::uniform_real_distribution<float> u01(0.0f, 1.0f);
+  switch (p.kind) {
+    case PrimitiveKind::kTriangle: {
+      float a = u01(rng), b = u01(rng);
+      if (a + b > 1.0f) {
+        a = 1.0f - a;
+        b = 1.0f - b;
+      }
+      return p.vertex(0) + (p.vertex(1) - p.vertex(0)) * a + (p.vertex(2) - p.vertex(0)) * b;
+    }
+    case PrimitiveKind::kSphere:
+      return p.center() + random_unit(rng) * (0.999f * std::fabs(p.radius()));
+    case PrimitiveKind::kCone: {
+      const float s = u01(rng);
+      return p.cone_base() + (p.cone_apex() - p.cone_base()) * s;  // on the axis: the ray crosses the surface
+    }
+  }
+  return {};
+}
+
+View fallback_view(const Database& db) {
+  View v;
+  const Vec3 c = db.bounds.empty() ? Vec3{} : db.bounds.center();
+  const float r = db.bounds.empty() ? 1.0f : 0.5f * length(db.bounds.extent());
+  v.at = c;
+  v.from = c + Vec3{0.3f, -0.4f, 0.866f} * (3.0f * r);
+  v.up = {0, 0, 1};
+  v.angle = 45.0f;
+  return v;
+}
+
+}  // namespace
+
+ValidateReport validate_grid(const Database& db, const Grid& grid, const EmbreeScene& embree,
+                             const ValidateParams& params) {
+  ValidateReport report;
+  Checker chk(db, grid, embree, params, report);
+  std::mt19937_64 rng(params.seed);
+  std::uniform_real_distribution<float> u01(0.0f, 1.0f);
+
+  struct Origin {
+    Ray ray;
+    Hit hit;
+  };
+  std::vector<Origin> hits;  // grid hits to spawn secondary rays from
+
+  const View view = db.has_view ? db.view : fallback_view(db);
+  const Camera cam(view, params.width, params.height);
+  for (int y = 0; y < params.height; ++y)
+    for (int x = 0; x < params.width; ++x) {
+      const Ray r = cam.ray_through(float(x) + 0.5f, float(y) + 0.5f);
+      const Hit h = chk.check("primary", r, report.primary, false);
+      if (h.found() && (hits.size() < 200000 || u01(rng) < 0.1f)) hits.push_back({r, h});
+    }
+
+  if (!db.primitives.empty()) {
+    Bounds3 box = db.bounds;
+    const Vec3 grow = box.extent() * 0.25f;
+    box.lower -= grow;
+    box.upper += grow;
+    std::uniform_int_distribution<std::size_t> pick(0, db.primitives.size() - 1);
+    for (std::size_t i = 0; i < params.random_rays; ++i) {
+      const Vec3 o{box.lower.x + u01(rng) * (box.upper.x - box.lower.x),
+                   box.lower.y + u01(rng) * (box.upper.y - box.lower.y),
+                   box.lower.z + u01(rng) * (box.upper.z - box.lower.z)};
+      Vec3 d = random_unit(rng);
+      if (i % 2) {
+        const Vec3 target = random_point_on(db.primitives[pick(rng)], rng);
+        const Vec3 to = target - o;
+        if (length(to) > 1e-6f * length(box.extent())) d = normalize(to);
+      }
+      const Ray r{o, d, 0.0f, kInfinity};
+      const Hit h = chk.check("random", r, report.random, true);
+      if (h.found() && hits.size() < 400000) hits.push_back({r, h});
+    }
+  }
+
+  for (const Origin& o : hits) {
+    const Primitive& p = db.primitives[o.hit.primitive];
+    const Vec3 x = o.ray.at(o.hit.t);
+    Vec3 n = geometric_normal(p, x);
+    if (!(length(n) > 0.0f)) continue;
+    n = normalize(n);
+    const Vec3 d = normalize(o.ray.direction);
+    const float scale = 1e-4f * (1.0f + max_component(abs(x)));
+    // Mirror reflection, leaving on the side the ray came from.
+    const Vec3 nf = dot(n, d) < 0.0f ? n : -n;
+    const Vec3 refl = d - n * (2.0f * dot(d, n));
+    chk.check("secondary", Ray{x + nf * scale, refl, 0.0f, kInfinity}, report.secondary, true);
+    // A random direction, leaving on its own side.
+    const Vec3 rd = random_unit(rng);
+    const Vec3 side = dot(n, rd) >= 0.0f ? n : -n;
+    chk.check("secondary", Ray{x + side * scale, rd, 0.0f, kInfinity}, report.secondary, true);
+  }
+
+  report.total = report.primary;
+  report.total += report.random;
+  report.total += report.secondary;
+  report.grid_stats = chk.stats();
+  return report;
+}
+
+}  // namespace raynode::core

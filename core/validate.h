@@ -1,0 +1,74 @@
+// Grid-versus-Embree validation: fires the same rays through the custom
+// uniform grid and through Embree and counts disagreements.
+//
+// Place in the data flow: Database + Grid + EmbreeScene -> validate_grid ->
+// ValidateReport -> `raynode validate` (text or JSON, exit 1 on mismatch).
+//
+// Ray sets (deterministic for a seed):
+//  - primary: one ray through each pixel centre of the view (width x height);
+//  - random: origins uniform in the scene box grown by 50%, half with
+//    uniform random directions, half aimed at a random point of a random
+//    primitive (so sparse scenes still get hits);
+//  - secondary: from the grid's hit points of primary and random rays, a
+//    mirror-reflected ray and a random-direction ray, their origins offset
+//    along the normal by 1e-4 x (1 + largest |coordinate| of the point) to
+//    the side they leave towards; also checked as any-hit (shadow) queries.
+// Mismatch: one structure hits and the other misses, or both hit with t
+// differing by more than tolerance = t_rel x max(t_grid, t_embree) +
+// 1e-6 x scene diagonal (the primitive may differ when t agrees: shared edges).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/database.h"
+#include "core/embree_scene.h"
+#include "core/grid.h"
+#include "core/traverse.h"
+
+namespace raynode::core {
+
+struct ValidateParams {
+  int width = 512;                  ///< primary rays: width x height
+  int height = 512;
+  std::size_t random_rays = 400000;
+  std::uint64_t seed = 1;
+  float t_rel = 1e-4f;              ///< relative t tolerance
+  std::size_t max_examples = 10;    ///< mismatching rays kept for the report
+};
+
+/// Counts for one ray set.
+struct ValidateCounts {
+  std::uint64_t rays = 0;
+  std::uint64_t grid_hits = 0;
+  std::uint64_t embree_hits = 0;
+  std::uint64_t hit_vs_miss = 0;      ///< grid hit, Embree missed
+  std::uint64_t miss_vs_hit = 0;      ///< grid missed, Embree hit
+  std::uint64_t t_mismatch = 0;       ///< both hit, t beyond tolerance
+  std::uint64_t other_primitive = 0;  ///< both hit, different primitive, t within tolerance (not a mismatch)
+  std::uint64_t any_hit_mismatch = 0; ///< shadow-query disagreements
+  double max_t_rel_error = 0.0;       ///< largest |t_g - t_e| / max(t) where both hit
+  std::uint64_t mismatches() const { return hit_vs_miss + miss_vs_hit + t_mismatch + any_hit_mismatch; }
+  ValidateCounts& operator+=(const ValidateCounts& o);
+};
+
+/// One disagreeing ray, for diagnosis.
+struct MismatchExample {
+  std::string set;
+  Ray ray;
+  Hit grid, embree;
+};
+
+struct ValidateReport {
+  ValidateCounts primary, random, secondary, total;
+  std::vector<MismatchExample> examples;
+  TraversalStats grid_stats;
+};
+
+/// Runs the validation. The view is used for primary rays if the database
+/// has one (otherwise a view looking at the scene box from outside).
+ValidateReport validate_grid(const Database& db, const Grid& grid, const EmbreeScene& embree,
+                             const ValidateParams& params = {});
+
+}  // namespace raynode::core
