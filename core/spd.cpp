@@ -1,0 +1,92 @@
+// Built-in SPD generators: names, "name[:size]" parsing and dispatch.
+// The generators themselves live in spd_<name>.cpp (spd_generators.h); the
+// -t polygonalisation in tessellate.cpp.
+#include "core/spd.h"
+
+#include <charconv>
+#include <stdexcept>
+#include <string>
+
+#include "core/spd_generators.h"
+
+namespace raynode::core {
+namespace {
+
+struct Generator {
+  const char* name;
+  int default_size;  // the SPD program's own default size factor
+  Scene (*make)(int size);
+};
+
+// In the order SPD 3.14 lists them.
+constexpr Generator kGenerators[] = {
+    {"teapot", 6, spd::make_teapot},
+    {"mount", 6, spd::make_mount},
+    {"rings", 7, spd::make_rings},
+    {"tetra", 6, spd::make_tetra},
+    {"balls", 4, spd::make_balls},
+};
+
+const Generator* find_generator(std::string_view name) {
+  for (const Generator& g : kGenerators) {
+    if (name == g.name) return &g;
+  }
+  return nullptr;
+}
+
+std::string valid_names() {
+  std::string out;
+  for (const Generator& g : kGenerators) {
+    if (!out.empty()) out += ", ";
+    out += g.name;
+  }
+  return out;
+}
+
+[[noreturn]] void throw_unknown(std::string_view name) {
+  throw std::invalid_argument("unknown SPD scene '" + std::string(name) +
+                              "' (valid: " + valid_names() + ")");
+}
+
+}  // namespace
+
+std::vector<std::string> spd_names() {
+  std::vector<std::string> out;
+  for (const Generator& g : kGenerators) out.emplace_back(g.name);
+  return out;
+}
+
+SpdParams parse_spd_spec(std::string_view spec) {
+  const std::size_t colon = spec.find(':');
+  const std::string_view name = spec.substr(0, colon);
+  if (!find_generator(name)) throw_unknown(name);
+  SpdParams params;
+  params.name = std::string(name);
+  if (colon == std::string_view::npos) return params;
+
+  const std::string_view size_text = spec.substr(colon + 1);
+  int size = 0;
+  const char* first = size_text.data();
+  const char* last = first + size_text.size();
+  const auto [end, ec] = std::from_chars(first, last, size);
+  if (size_text.empty() || ec != std::errc{} || end != last || size < 1) {
+    throw std::invalid_argument("bad size '" + std::string(size_text) + "' in SPD spec '" +
+                                std::string(spec) + "': expected a positive integer");
+  }
+  params.size = size;
+  return params;
+}
+
+Scene make_spd_scene(const SpdParams& params) {
+  const Generator* g = find_generator(params.name);
+  if (!g) throw_unknown(params.name);
+  if (params.tessellate < 0) {
+    throw std::invalid_argument("SPD tessellation " + std::to_string(params.tessellate) +
+                                " must be 0 (curved) or at least 1");
+  }
+  Scene scene = g->make(params.size == -1 ? g->default_size : params.size);
+  if (params.tessellate > 0) tessellate_scene(scene, params.tessellate);
+  return scene;
+}
+
+}  // namespace raynode::core
