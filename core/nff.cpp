@@ -1,0 +1,686 @@
+// NFF reader and writer. See nff.h for the contract and
+// ../shared/scenes/NFF-NOTES.md for the format.
+//
+// Reader: the whole file is read into memory (inflated first when it starts
+// with the gzip magic), then parsed as a stream of whitespace-separated tokens
+// with std::from_chars. Only byte offsets are tracked while parsing; the
+// 1-based line and column are computed from the offset when an error is
+// thrown, so the hot loop pays nothing for locations.
+//
+// Writer: formats into an fmt::memory_buffer and hands it to a sink in large
+// chunks (an ostream, a FILE*, or a gzFile). Floats use fmt's shortest
+// round-trip representation, so parse_nff(write_nff(s)) reproduces every bit.
+#include "core/nff.h"
+
+#include <zlib.h>
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <functional>
+#include <limits>
+#include <ostream>
+#include <string>
+#include <string_view>
+#include <system_error>
+#include <utility>
+#include <vector>
+
+#include <fmt/format.h>
+
+namespace raynode::core {
+
+ParseError::ParseError(std::string file, int line, int column, const std::string& message)
+    : std::runtime_error(fmt::format("{}:{}:{}: {}", file, line, column, message)),
+      file_(std::move(file)),
+      line_(line),
+      column_(column),
+      message_(message) {}
+
+namespace {
+
+/// Polygon/patch vertex counts above this are reported, not allocated.
+constexpr long long kMaxPolygonVertices = 10'000'000;
+
+// ---------------------------------------------------------------------------
+// Lexer
+// ---------------------------------------------------------------------------
+
+/// Character classes: 0 = token character, 1 = whitespace, 2 = '#' (comment).
+constexpr std::array<std::uint8_t, 256> make_char_classes() {
+  std::array<std::uint8_t, 256> t{};
+  for (unsigned char c : {' ', '\t', '\n', '\r', '\f', '\v'}) t[c] = 1;
+  t[static_cast<unsigned char>('#')] = 2;
+  return t;
+}
+constexpr std::array<std::uint8_t, 256> kCharClass = make_char_classes();
+
+inline bool is_delimiter(char c) { return kCharClass[static_cast<unsigned char>(c)] != 0; }
+
+/// How a numeric token failed to convert.
+enum class NumberStatus { kOk, kNotANumber, kNotFinite };
+
+/// Converts a whole token to a float. Accepts a leading '+', and values that
+/// underflow float (they become 0 or a denormal); rejects nan/inf and values
+/// that overflow float.
+NumberStatus token_to_float(std::string_view tok, float& out) {
+  const char* first = tok.data();
+  const char* last = tok.data() + tok.size();
+  if (first != last && *first == '+') ++first;
+  auto [ptr, ec] = std::from_chars(first, last, out);
+  if (ec == std::errc::result_out_of_range && ptr == last) {
+    double d = 0.0;
+    auto [dptr, dec] = std::from_chars(first, last, d);
+    if (dec != std::errc{} || dptr != last || !(std::fabs(d) < 1.0)) return NumberStatus::kNotFinite;
+    out = static_cast<float>(d);  // underflow: keep the denormal or signed zero
+    return NumberStatus::kOk;
+  }
+  if (ec != std::errc{} || ptr != last) return NumberStatus::kNotANumber;
+  if (!std::isfinite(out)) return NumberStatus::kNotFinite;
+  return NumberStatus::kOk;
+}
+
+/// Shortens a token for quoting in a message.
+std::string quote(std::string_view tok) {
+  constexpr std::size_t kMax = 40;
+  if (tok.size() <= kMax) return fmt::format("'{}'", tok);
+  return fmt::format("'{}...'", tok.substr(0, kMax));
+}
+
+/// Token stream over an in-memory NFF text. Owner thread only.
+class Lexer {
+ public:
+  Lexer(std::string_view text, const std::string& name)
+      : begin_(text.data()), p_(text.data()), end_(text.data() + text.size()), name_(name) {}
+
+  /// Skips whitespace and comments; true when a token follows.
+  bool skip() {
+    while (p_ != end_) {
+      const std::uint8_t cls = kCharClass[static_cast<unsigned char>(*p_)];
+      if (cls == 0) return true;
+      if (cls == 1) {
+        ++p_;
+      } else {
+        const void* nl = std::memchr(p_, '\n', static_cast<std::size_t>(end_ - p_));
+        p_ = nl ? static_cast<const char*>(nl) : end_;
+      }
+    }
+    return false;
+  }
+
+  /// The next token; the lexer must be at a token start (after skip()).
+  std::string_view take_token() {
+    const char* start = p_;
+    while (p_ != end_ && !is_delimiter(*p_)) ++p_;
+    return {start, static_cast<std::size_t>(p_ - start)};
+  }
+
+  /// The next token without consuming it; empty at end of input.
+  std::string_view peek_token() {
+    if (!skip()) return {};
+    const char* q = p_;
+    while (q != end_ && !is_delimiter(*q)) ++q;
+    return {p_, static_cast<std::size_t>(q - p_)};
+  }
+
+  const char* position() const { return p_; }
+  const char* end() const { return end_; }
+
+  /// Throws a ParseError located at `at` (a pointer into the text).
+  [[noreturn]] void fail_at(const char* at, const std::string& message) const {
+    int line = 1;
+    const char* line_start = begin_;
+    for (const char* q = begin_; q < at; ++q) {
+      if (*q == '\n') {
+        ++line;
+        line_start = q + 1;
+      }
+    }
+    throw ParseError(name_, line, static_cast<int>(at - line_start) + 1, message);
+  }
+
+ private:
+  const char* begin_;
+  const char* p_;
+  const char* end_;
+  const std::string& name_;
+};
+
+// ---------------------------------------------------------------------------
+// Parser
+// ---------------------------------------------------------------------------
+
+class Parser {
+ public:
+  Parser(std::string_view text, const std::string& name) : lex_(text, name) {}
+
+  Scene parse() {
+    while (lex_.skip()) {
+      const char* at = lex_.position();
+      const std::string_view kw = lex_.take_token();
+      entity_ = kw;
+      if (kw == "p") {
+        parse_polygon(false);
+      } else if (kw == "pp") {
+        parse_polygon(true);
+      } else if (kw == "s") {
+        parse_sphere();
+      } else if (kw == "c") {
+        parse_cone();
+      } else if (kw == "f") {
+        parse_material();
+      } else if (kw == "l") {
+        parse_light();
+      } else if (kw == "b") {
+        scene_.background = vec3("background colour");
+      } else if (kw == "v") {
+        parse_view();
+      } else {
+        float ignored = 0.0f;
+        if (token_to_float(kw, ignored) != NumberStatus::kNotANumber) {
+          lex_.fail_at(at, fmt::format("expected a keyword, found the number {} (too many numbers "
+                                       "in the previous entity?)",
+                                       quote(kw)));
+        }
+        lex_.fail_at(at, fmt::format("unknown keyword {}", quote(kw)));
+      }
+    }
+    return std::move(scene_);
+  }
+
+ private:
+  [[noreturn]] void fail_truncated(const std::string& expected) {
+    lex_.fail_at(lex_.end(), fmt::format("file ends inside a '{}' entity (expected {})", entity_,
+                                         expected));
+  }
+
+  /// Reads one finite float; `what` names the field for messages. `missing`
+  /// (when given) is the truncation wording, else `what` is used.
+  float number(const char* what, const char* missing = nullptr) {
+    if (!lex_.skip()) fail_truncated(missing ? missing : what);
+    const char* at = lex_.position();
+    const char* first = at;
+    const char* last = lex_.end();
+    float v = 0.0f;
+    // Fast path: from_chars directly on the text, then check that the token
+    // ended there. Anything unusual goes through token_to_float.
+    if (*first != '+') {
+      auto [ptr, ec] = std::from_chars(first, last, v);
+      if (ec == std::errc{} && (ptr == last || is_delimiter(*ptr)) && std::isfinite(v)) {
+        lex_.take_token();  // advances exactly to ptr
+        return v;
+      }
+    }
+    const std::string_view tok = lex_.take_token();
+    switch (token_to_float(tok, v)) {
+      case NumberStatus::kOk: return v;
+      case NumberStatus::kNotFinite:
+        lex_.fail_at(at, fmt::format("expected a finite number for {}, found {}", what, quote(tok)));
+      case NumberStatus::kNotANumber: break;
+    }
+    lex_.fail_at(at, fmt::format("expected a number for {}, found {}", what, quote(tok)));
+  }
+
+  Vec3 vec3(const char* what, const char* missing = nullptr) {
+    const float x = number(what, missing);
+    const float y = number(what, missing);
+    const float z = number(what, missing);
+    return {x, y, z};
+  }
+
+  /// Reads an integer token; returns it with its position.
+  std::pair<long long, const char*> integer(const char* what) {
+    if (!lex_.skip()) fail_truncated(what);
+    const char* at = lex_.position();
+    const std::string_view tok = lex_.take_token();
+    const char* first = tok.data();
+    const char* last = first + tok.size();
+    if (first != last && *first == '+') ++first;
+    long long v = 0;
+    auto [ptr, ec] = std::from_chars(first, last, v);
+    if (ec == std::errc::result_out_of_range && ptr == last) {
+      lex_.fail_at(at, fmt::format("{} {} is out of range", what, quote(tok)));
+    }
+    if (ec != std::errc{} || ptr != last) {
+      lex_.fail_at(at, fmt::format("expected an integer for {}, found {}", what, quote(tok)));
+    }
+    return {v, at};
+  }
+
+  void parse_polygon(bool patch) {
+    const char* noun = patch ? "patch" : "polygon";
+    const auto [n, at] = integer(patch ? "patch vertex count" : "polygon vertex count");
+    if (n < 3) {
+      lex_.fail_at(at, fmt::format("{} has {} vertices; at least 3 are needed", noun, n));
+    }
+    if (n > kMaxPolygonVertices) {
+      lex_.fail_at(at, fmt::format("{} has {} vertices; at most {} are supported", noun, n,
+                                   kMaxPolygonVertices));
+    }
+    const auto count = static_cast<std::uint32_t>(n);
+    // Grown per vertex (the scratch keeps its capacity), so a huge count in
+    // a truncated file costs no more memory than the vertices present.
+    verts_.clear();
+    normals_.clear();
+    for (std::uint32_t i = 0; i < count; ++i) {
+      // Field and truncation wording are only formatted on the error path.
+      const std::uint32_t left = count - i;
+      try_vertex(patch, i, left);
+    }
+    if (is_degenerate_polygon(verts_.data(), count)) {
+      ++scene_.dropped_degenerate;
+      return;
+    }
+    if (patch) {
+      scene_.add_patch(verts_.data(), normals_.data(), count);
+    } else {
+      scene_.add_polygon(verts_.data(), count);
+    }
+  }
+
+  /// Reads vertex i (and its normal for a patch); `left` vertices remain
+  /// including this one.
+  void try_vertex(bool patch, std::uint32_t i, std::uint32_t left) {
+    // The common case: every token is a plain finite number.
+    float v[6];
+    const int k = patch ? 6 : 3;
+    for (int j = 0; j < k; ++j) {
+      if (!lex_.skip()) {
+        fail_truncated(fmt::format("{} more vert{}", left, left == 1 ? "ex" : "ices"));
+      }
+      if (!fast_number(v[j])) {
+        const std::string what =
+            fmt::format("{} {} {}", patch ? "patch" : "polygon", j < 3 ? "vertex" : "normal", i + 1);
+        v[j] = number(what.c_str());  // throws with the right message
+      }
+    }
+    verts_.push_back({v[0], v[1], v[2]});
+    if (patch) normals_.push_back({v[3], v[4], v[5]});
+  }
+
+  /// At a token start: converts a plain finite number and consumes it, or
+  /// leaves the lexer unchanged and returns false.
+  bool fast_number(float& out) {
+    const char* first = lex_.position();
+    if (*first == '+') return false;
+    auto [ptr, ec] = std::from_chars(first, lex_.end(), out);
+    if (ec != std::errc{} || (ptr != lex_.end() && !is_delimiter(*ptr)) || !std::isfinite(out)) {
+      return false;
+    }
+    lex_.take_token();
+    return true;
+  }
+
+  void parse_sphere() {
+    Sphere s;
+    s.center = vec3("sphere centre");
+    s.radius = number("sphere radius");
+    scene_.add_sphere(s);
+  }
+
+  void parse_cone() {
+    Cone c;
+    c.base = vec3("cone base centre");
+    c.base_radius = number("cone base radius");
+    c.apex = vec3("cone apex centre");
+    c.apex_radius = number("cone apex radius");
+    scene_.add_cone(c);
+  }
+
+  void parse_material() {
+    Material m;
+    m.color = vec3("material colour");
+    m.kd = number("material Kd");
+    m.ks = number("material Ks");
+    m.shine = number("material Shine");
+    m.transmittance = number("material T");
+    m.ior = number("material ior");
+    scene_.materials.push_back(m);
+  }
+
+  void parse_light() {
+    Light l;
+    l.position = vec3("light position");
+    // The colour is optional: it is there when the next token is numeric
+    // (including 'nan'/'inf', which are then reported as non-finite).
+    const std::string_view next = lex_.peek_token();
+    float ignored = 0.0f;
+    if (!next.empty() && token_to_float(next, ignored) != NumberStatus::kNotANumber) {
+      l.color = vec3("light colour");
+      l.has_color = true;
+    }
+    scene_.lights.push_back(l);
+  }
+
+  void parse_view() {
+    static constexpr std::array<std::string_view, 6> kLabels = {"from",  "at",     "up",
+                                                                 "angle", "hither", "resolution"};
+    View& v = scene_.view;
+    bool seen[6] = {};
+    for (int done = 0; done < 6; ++done) {
+      int missing = 0;
+      while (seen[missing]) ++missing;
+      const std::string expected = fmt::format("'{}'", kLabels[missing]);
+      if (!lex_.skip()) fail_truncated(expected);
+      const char* at = lex_.position();
+      const std::string_view label = lex_.take_token();
+      int which = -1;
+      for (int i = 0; i < 6; ++i) {
+        if (label == kLabels[i]) which = i;
+      }
+      if (which < 0) {
+        lex_.fail_at(at, fmt::format("expected {} in the view block, found {}", expected,
+                                     quote(label)));
+      }
+      if (seen[which]) {
+        lex_.fail_at(at, fmt::format("'{}' appears twice in the view block", label));
+      }
+      seen[which] = true;
+      switch (which) {
+        case 0: v.from = vec3("view 'from'"); break;
+        case 1: v.at = vec3("view 'at'"); break;
+        case 2: v.up = vec3("view 'up'"); break;
+        case 3: v.angle = number("view 'angle'"); break;
+        case 4: v.hither = number("view 'hither'"); break;
+        case 5:
+          v.width = resolution("resolution width");
+          v.height = resolution("resolution height");
+          break;
+      }
+    }
+    scene_.has_view = true;
+  }
+
+  int resolution(const char* what) {
+    const auto [n, at] = integer(what);
+    if (n <= 0 || n > std::numeric_limits<int>::max()) {
+      lex_.fail_at(at, fmt::format("{} must be a positive number of pixels, found {}", what, n));
+    }
+    return static_cast<int>(n);
+  }
+
+  Lexer lex_;
+  Scene scene_;
+  std::string_view entity_;     ///< keyword of the entity being parsed
+  std::vector<Vec3> verts_;     ///< scratch: current polygon's vertices
+  std::vector<Vec3> normals_;   ///< scratch: current patch's normals
+};
+
+// ---------------------------------------------------------------------------
+// File input
+// ---------------------------------------------------------------------------
+
+std::string errno_text(int err) { return std::strerror(err); }
+
+/// Reads a whole file into memory (throws "cannot open/read ...").
+std::string read_file_bytes(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) throw std::runtime_error(fmt::format("cannot open '{}': {}", path, errno_text(errno)));
+  std::string data;
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (!ec) data.reserve(static_cast<std::size_t>(size));
+  char chunk[1 << 16];
+  for (;;) {
+    const std::size_t got = std::fread(chunk, 1, sizeof chunk, f);
+    data.append(chunk, got);
+    if (got < sizeof chunk) break;
+  }
+  const bool failed = std::ferror(f) != 0;
+  const int err = errno;
+  std::fclose(f);
+  if (failed) throw std::runtime_error(fmt::format("cannot read '{}': {}", path, errno_text(err)));
+  return data;
+}
+
+bool has_gzip_magic(std::string_view data) {
+  return data.size() >= 2 && static_cast<unsigned char>(data[0]) == 0x1f &&
+         static_cast<unsigned char>(data[1]) == 0x8b;
+}
+
+/// Inflates gzip data (one or more concatenated members) held in memory.
+std::string gunzip(std::string_view in, const std::string& path) {
+  std::string out;
+  // The gzip trailer holds the uncompressed size modulo 2^32: a good first
+  // guess. Deflate cannot expand more than 1032:1, which bounds the guess when
+  // the trailer is garbage (a truncated file).
+  if (in.size() >= 18) {
+    std::uint32_t isize = 0;
+    std::memcpy(&isize, in.data() + in.size() - 4, 4);  // little-endian hosts
+    const std::size_t bound = in.size() * 1032;
+    out.resize(std::clamp<std::size_t>(isize, in.size(), bound) + 1);
+  } else {
+    out.resize(1 << 16);
+  }
+  z_stream zs{};
+  if (inflateInit2(&zs, 15 + 16) != Z_OK) {
+    throw std::runtime_error(fmt::format("cannot decompress '{}': zlib init failed", path));
+  }
+  auto fail = [&](const char* why) {
+    const std::string msg =
+        fmt::format("cannot decompress '{}': {}", path, zs.msg ? zs.msg : why);
+    inflateEnd(&zs);
+    throw std::runtime_error(msg);
+  };
+  std::size_t in_pos = 0, out_pos = 0;
+  constexpr std::size_t kStep = std::size_t{1} << 30;  // zlib counts in uInt
+  for (;;) {
+    if (out_pos == out.size()) out.resize(out.size() * 2);
+    const std::size_t in_avail = std::min(in.size() - in_pos, kStep);
+    const std::size_t out_avail = std::min(out.size() - out_pos, kStep);
+    zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data() + in_pos));
+    zs.avail_in = static_cast<uInt>(in_avail);
+    zs.next_out = reinterpret_cast<Bytef*>(out.data() + out_pos);
+    zs.avail_out = static_cast<uInt>(out_avail);
+    const int rc = inflate(&zs, Z_NO_FLUSH);
+    in_pos += in_avail - zs.avail_in;
+    out_pos += out_avail - zs.avail_out;
+    if (rc == Z_STREAM_END) {
+      // Another member may follow (concatenated gzip files); trailing zeros
+      // or garbage after a complete member are ignored, as gzip does.
+      if (in_pos + 2 <= in.size() && has_gzip_magic(in.substr(in_pos))) {
+        inflateReset(&zs);
+        continue;
+      }
+      break;
+    }
+    if (rc == Z_BUF_ERROR && in_pos == in.size() && zs.avail_out != 0) {
+      fail("gzip data is truncated");
+    }
+    if (rc != Z_OK && rc != Z_BUF_ERROR) fail("corrupt gzip data");
+  }
+  inflateEnd(&zs);
+  out.resize(out_pos);
+  return out;
+}
+
+// ---------------------------------------------------------------------------
+// Writer
+// ---------------------------------------------------------------------------
+
+using Sink = std::function<void(const char*, std::size_t)>;
+
+void write_nff_to(const Sink& sink, const Scene& scene) {
+  constexpr std::size_t kFlushAt = std::size_t{1} << 18;
+  fmt::memory_buffer buf;
+  auto out = std::back_inserter(buf);
+  auto flush = [&] {
+    if (buf.size() != 0) sink(buf.data(), buf.size());
+    buf.clear();
+  };
+  auto vec = [&](const Vec3& v) { fmt::format_to(out, "{} {} {}", v.x, v.y, v.z); };
+
+  fmt::format_to(out, "b ");
+  vec(scene.background);
+  fmt::format_to(out, "\n");
+  if (scene.has_view) {
+    const View& v = scene.view;
+    fmt::format_to(out, "v\nfrom ");
+    vec(v.from);
+    fmt::format_to(out, "\nat ");
+    vec(v.at);
+    fmt::format_to(out, "\nup ");
+    vec(v.up);
+    fmt::format_to(out, "\nangle {}\nhither {}\nresolution {} {}\n", v.angle, v.hither, v.width,
+                   v.height);
+  }
+  for (const Light& l : scene.lights) {
+    fmt::format_to(out, "l ");
+    vec(l.position);
+    if (l.has_color) {
+      fmt::format_to(out, " ");
+      vec(l.color);
+    }
+    fmt::format_to(out, "\n");
+  }
+
+  auto material = [&](std::size_t i) {
+    const Material& m = scene.materials[i];
+    fmt::format_to(out, "f ");
+    vec(m.color);
+    fmt::format_to(out, " {} {} {} {} {}\n", m.kd, m.ks, m.shine, m.transmittance, m.ior);
+  };
+  // `emitted` materials have been written; `current` is the one in force.
+  std::size_t emitted = 0;
+  std::size_t current = std::numeric_limits<std::size_t>::max();
+  for (std::size_t si = 0; si < scene.shapes.size(); ++si) {
+    const Shape& s = scene.shapes[si];
+    if (s.material >= scene.materials.size()) {
+      throw std::runtime_error(fmt::format("write_nff: shape {} uses material {} but the scene "
+                                           "has {} materials",
+                                           si, s.material, scene.materials.size()));
+    }
+    if (s.material != current) {
+      if (s.material >= emitted) {
+        while (emitted <= s.material) material(emitted++);
+      } else {
+        // A shape going back to an earlier material (never produced by the
+        // reader): restate it. Appearance survives; the materials list of the
+        // re-read scene gains a copy.
+        material(s.material);
+      }
+      current = s.material;
+    }
+    switch (s.kind) {
+      case ShapeKind::kPolygon:
+        fmt::format_to(out, "p {}\n", s.count);
+        for (std::uint32_t i = 0; i < s.count; ++i) {
+          vec(scene.vertices[s.first + i]);
+          fmt::format_to(out, "\n");
+        }
+        break;
+      case ShapeKind::kPatch:
+        fmt::format_to(out, "pp {}\n", s.count);
+        for (std::uint32_t i = 0; i < s.count; ++i) {
+          vec(scene.vertices[s.first + i]);
+          fmt::format_to(out, " ");
+          vec(scene.normals[s.first_normal + i]);
+          fmt::format_to(out, "\n");
+        }
+        break;
+      case ShapeKind::kSphere: {
+        const Sphere& sp = scene.spheres[s.first];
+        fmt::format_to(out, "s ");
+        vec(sp.center);
+        fmt::format_to(out, " {}\n", sp.radius);
+        break;
+      }
+      case ShapeKind::kCone: {
+        const Cone& c = scene.cones[s.first];
+        fmt::format_to(out, "c ");
+        vec(c.base);
+        fmt::format_to(out, " {} ", c.base_radius);
+        vec(c.apex);
+        fmt::format_to(out, " {}\n", c.apex_radius);
+        break;
+      }
+    }
+    if (buf.size() >= kFlushAt) flush();
+  }
+  // Materials no shape uses (after the last shape) still round-trip.
+  while (emitted < scene.materials.size()) material(emitted++);
+  flush();
+}
+
+bool ends_with(std::string_view s, std::string_view suffix) {
+  return s.size() >= suffix.size() && s.substr(s.size() - suffix.size()) == suffix;
+}
+
+}  // namespace
+
+Scene parse_nff(std::string_view text, const std::string& name) {
+  return Parser(text, name).parse();
+}
+
+Scene read_nff(const std::string& path) {
+  std::string data = read_file_bytes(path);
+  if (has_gzip_magic(data)) data = gunzip(data, path);
+  return parse_nff(data, path);
+}
+
+void write_nff(std::ostream& out, const Scene& scene) {
+  write_nff_to(
+      [&out](const char* p, std::size_t n) { out.write(p, static_cast<std::streamsize>(n)); },
+      scene);
+}
+
+void write_nff_file(const std::string& path, const Scene& scene) {
+  const std::string tmp = path + ".tmp";
+  auto fail = [&](const std::string& why) {
+    std::error_code ignored;
+    std::filesystem::remove(tmp, ignored);
+    throw std::runtime_error(fmt::format("cannot write '{}': {}", path, why));
+  };
+  if (ends_with(path, ".gz")) {
+    gzFile gz = gzopen(tmp.c_str(), "wb");
+    if (!gz) fail(errno ? errno_text(errno) : "gzopen failed");
+    std::string error;
+    try {
+      write_nff_to(
+          [&](const char* p, std::size_t n) {
+            while (n > 0) {
+              const unsigned step = static_cast<unsigned>(std::min<std::size_t>(n, 1u << 30));
+              if (gzwrite(gz, p, step) != static_cast<int>(step)) {
+                int errnum = 0;
+                const char* msg = gzerror(gz, &errnum);
+                throw std::runtime_error(errnum == Z_ERRNO ? errno_text(errno) : msg);
+              }
+              p += step;
+              n -= step;
+            }
+          },
+          scene);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+    const int rc = gzclose(gz);
+    if (error.empty() && rc != Z_OK) error = rc == Z_ERRNO ? errno_text(errno) : "gzclose failed";
+    if (!error.empty()) fail(error);
+  } else {
+    std::FILE* f = std::fopen(tmp.c_str(), "wb");
+    if (!f) fail(errno_text(errno));
+    std::string error;
+    try {
+      write_nff_to(
+          [&](const char* p, std::size_t n) {
+            if (std::fwrite(p, 1, n, f) != n) throw std::runtime_error(errno_text(errno));
+          },
+          scene);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+    if (std::fclose(f) != 0 && error.empty()) error = errno_text(errno);
+    if (!error.empty()) fail(error);
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) fail(ec.message());
+}
+
+}  // namespace raynode::core
