@@ -1,0 +1,152 @@
+// `raynode bench accel SCENE...`: rays per second of the uniform grid and of
+// Embree, one thread, the same rays: primary rays through each pixel centre
+// (closest hit), shadow rays from their hits to every light (any hit), and
+// mirror rays from their hits (closest hit). Best of --repeat runs.
+#include <fmt/core.h>
+
+#include <chrono>
+#include <nlohmann/json.hpp>
+#include <vector>
+
+#include "apps/commands.h"
+#include "core/camera.h"
+#include "core/database.h"
+#include "core/direct_view.h"
+#include "core/embree_scene.h"
+#include "core/grid.h"
+#include "core/intersect.h"
+#include "core/traverse.h"
+
+namespace raynode::apps {
+
+namespace {
+
+struct BenchOptions {
+  std::vector<std::string> scenes;
+  int tessellate = 0;
+  int width = 512, height = 512;
+  int repeat = 3;
+  float density = core::GridParams{}.density;
+  bool json = false;
+};
+
+struct RaySet {
+  std::vector<core::Ray> closest;  // primary + mirror rays
+  std::vector<core::Ray> shadow;   // any-hit rays
+};
+
+RaySet make_rays(const core::Database& db, const core::Grid& grid, int w, int h) {
+  RaySet rs;
+  core::View view = db.view;
+  if (!db.has_view) {
+    view.at = db.bounds.center();
+    view.from = view.at + core::Vec3{0.3f, -0.4f, 0.866f} * (1.5f * core::length(db.bounds.extent()));
+    view.up = {0, 0, 1};
+  }
+  const core::Camera cam(view, w, h);
+  const core::DirectView dv(db, grid);
+  core::TraversalScratch scratch;
+  std::vector<core::Ray> mirror;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const core::Ray r = cam.ray_through(float(x) + 0.5f, float(y) + 0.5f);
+      rs.closest.push_back(r);
+      core::Hit hit;
+      if (!core::intersect_closest(dv, r, hit, scratch)) continue;
+      const core::Vec3 p = r.at(hit.t);
+      core::Vec3 n = core::normalize(core::geometric_normal(db.primitives[hit.primitive], p));
+      if (core::dot(n, r.direction) > 0) n = -n;
+      const core::Vec3 o = p + n * (1e-4f * (1.0f + core::max_component(core::abs(p))));
+      for (const core::Light& l : db.lights) {
+        const core::Vec3 to = l.position - o;
+        rs.shadow.push_back(core::Ray{o, to, 0.0f, 1.0f});
+      }
+      mirror.push_back(core::Ray{o, r.direction - n * (2.0f * core::dot(r.direction, n)), 0.0f, core::kInfinity});
+    }
+  rs.closest.insert(rs.closest.end(), mirror.begin(), mirror.end());
+  return rs;
+}
+
+template <class F>
+double best_seconds(int repeat, F&& f) {
+  double best = 1e30;
+  for (int i = 0; i < repeat; ++i) {
+    const auto t0 = std::chrono::steady_clock::now();
+    f();
+    best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
+  return best;
+}
+
+void run_bench(const BenchOptions& o) {
+  nlohmann::json out = nlohmann::json::array();
+  if (!o.json)
+    fmt::print("{:<12} {:>9} {:>12} {:>9} {:>10} {:>12} {:>12} {:>8}\n", "scene", "prims", "grid res", "build s",
+               "rays", "grid Mray/s", "embree Mray/s", "ratio");
+  for (const std::string& spec : o.scenes) {
+    const core::Scene scene = core::load_scene({spec, o.tessellate});
+    const core::Database db = core::make_database(scene);
+    core::GridParams gp;
+    gp.density = o.density;
+    core::Grid grid;
+    const double build_s = best_seconds(1, [&] { grid = core::build_grid(db, gp); });
+    const core::EmbreeScene embree(db);
+    const RaySet rs = make_rays(db, grid, o.width, o.height);
+    const core::DirectView dv(db, grid);
+    core::TraversalScratch scratch;
+    std::uint64_t sink = 0;
+    const double grid_s = best_seconds(o.repeat, [&] {
+      core::Hit h;
+      for (const core::Ray& r : rs.closest) sink += core::intersect_closest(dv, r, h, scratch);
+      for (const core::Ray& r : rs.shadow) sink += core::intersect_any(dv, r, scratch);
+    });
+    const double embree_s = best_seconds(o.repeat, [&] {
+      core::Hit h;
+      for (const core::Ray& r : rs.closest) sink += embree.intersect_closest(r, h);
+      for (const core::Ray& r : rs.shadow) sink += embree.intersect_any(r);
+    });
+    const double n = double(rs.closest.size() + rs.shadow.size());
+    const double ratio = grid_s / embree_s;
+    nlohmann::json j = {{"scene", spec},
+                        {"tessellate", o.tessellate},
+                        {"primitives", db.primitives.size()},
+                        {"grid_resolution", {grid.info.res[0], grid.info.res[1], grid.info.res[2]}},
+                        {"grid_references", grid.references()},
+                        {"grid_build_s", build_s},
+                        {"rays", std::uint64_t(n)},
+                        {"closest_rays", rs.closest.size()},
+                        {"shadow_rays", rs.shadow.size()},
+                        {"grid_rays_per_s", n / grid_s},
+                        {"embree_rays_per_s", n / embree_s},
+                        {"grid_over_embree_time", ratio},
+                        {"checksum", sink}};
+    out.push_back(j);
+    if (!o.json)
+      fmt::print("{:<12} {:>9} {:>12} {:>9.2f} {:>10} {:>12.2f} {:>12.2f} {:>8.2f}\n", spec, db.primitives.size(),
+                 fmt::format("{}x{}x{}", grid.info.res[0], grid.info.res[1], grid.info.res[2]), build_s,
+                 std::uint64_t(n), n / grid_s * 1e-6, n / embree_s * 1e-6, ratio);
+  }
+  if (o.json) fmt::print("{}\n", out.dump(2));
+  else fmt::print("ratio = grid time / Embree time (one thread, same rays; lower is better)\n");
+}
+
+}  // namespace
+
+void register_bench_command(CLI::App& app) {
+  CLI::App* bench = app.add_subcommand("bench", "Benchmarks (timings are never pass/fail tests)");
+  bench->require_subcommand(1);
+  auto o = std::make_shared<BenchOptions>();
+  CLI::App* c = bench->add_subcommand(
+      "accel", "Rays/s of the uniform grid vs Embree, one thread, same rays (primary, shadow, mirror)");
+  c->add_option("scenes", o->scenes, "Scenes (NFF files or SPD name[:size])")->required();
+  c->add_option("--tessellate,-t", o->tessellate, "Tessellate spheres and cones (SPD -t R)")
+      ->check(CLI::Range(0, 1000));
+  c->add_option("--width", o->width, "Image width for primary rays")->check(CLI::Range(1, 8192));
+  c->add_option("--height", o->height, "Image height for primary rays")->check(CLI::Range(1, 8192));
+  c->add_option("--repeat", o->repeat, "Runs per accelerator; the best is kept")->check(CLI::Range(1, 100));
+  c->add_option("--grid-density", o->density, "Grid cells per primitive")->check(CLI::Range(0.01f, 1000.0f));
+  c->add_flag("--json", o->json, "Print JSON");
+  c->callback([o] { run_bench(*o); });
+}
+
+}  // namespace raynode::apps

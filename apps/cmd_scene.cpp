@@ -1,0 +1,95 @@
+// `raynode scene info SCENE [--json]` and `raynode scene write SCENE -o FILE`.
+#include <fmt/core.h>
+
+#include <nlohmann/json.hpp>
+
+#include "apps/commands.h"
+#include "core/database.h"
+#include "core/grid.h"
+#include "core/nff.h"
+
+namespace raynode::apps {
+
+namespace {
+
+struct InfoOptions {
+  core::SceneSource source;
+  bool json = false;
+  bool grid = false;
+};
+
+struct WriteOptions {
+  core::SceneSource source;
+  std::string output;
+};
+
+void run_info(const InfoOptions& o) {
+  const core::Scene scene = core::load_scene(o.source);
+  const core::SceneCounts c = scene.counts();
+  const core::Bounds3 b = scene.bounds();
+  nlohmann::json j;
+  j["scene"] = o.source.spec;
+  j["tessellate"] = o.source.tessellate;
+  j["counts"] = {{"polygons", c.polygons},   {"patches", c.patches}, {"spheres", c.spheres},
+                 {"cones", c.cones},         {"lights", c.lights},   {"materials", c.materials},
+                 {"dropped_degenerate", c.dropped_degenerate}};
+  j["primitives"] = scene.shapes.size();
+  if (!b.empty())
+    j["bounds"] = {{"lower", {b.lower.x, b.lower.y, b.lower.z}}, {"upper", {b.upper.x, b.upper.y, b.upper.z}}};
+  if (scene.has_view) j["view"] = {{"width", scene.view.width}, {"height", scene.view.height}};
+  const core::Database db = core::make_database(scene);
+  const core::DatabaseCounts dc = db.counts();
+  j["database"] = {{"triangles", dc.triangles},
+                   {"spheres", dc.spheres},
+                   {"cones", dc.cones},
+                   {"bytes", db.bytes()},
+                   {"dropped_degenerate_triangles", db.dropped_degenerate_triangles}};
+  if (o.grid) {
+    const core::Grid g = core::build_grid(db);
+    j["grid"] = {{"resolution", {g.info.res[0], g.info.res[1], g.info.res[2]}},
+                 {"cells", g.info.cell_count()},
+                 {"empty_cells", g.empty_cells()},
+                 {"references", g.references()},
+                 {"bytes", g.bytes()}};
+  }
+  if (o.json) {
+    fmt::print("{}\n", j.dump(2));
+    return;
+  }
+  fmt::print("scene       {}{}\n", o.source.spec,
+             o.source.tessellate ? fmt::format(" (tessellated, R={})", o.source.tessellate) : "");
+  fmt::print("polygons    {}\npatches     {}\nspheres     {}\ncones       {}\nlights      {}\nmaterials   {}\n",
+             c.polygons, c.patches, c.spheres, c.cones, c.lights, c.materials);
+  if (c.dropped_degenerate) fmt::print("dropped     {} zero-area polygons\n", c.dropped_degenerate);
+  fmt::print("database    {} triangles, {} spheres, {} cones, {:.1f} KiB\n", dc.triangles, dc.spheres, dc.cones,
+             db.bytes() / 1024.0);
+  if (o.grid)
+    fmt::print("grid        {}x{}x{} cells, {} references, {} empty cells\n", j["grid"]["resolution"][0].get<int>(),
+               j["grid"]["resolution"][1].get<int>(), j["grid"]["resolution"][2].get<int>(),
+               j["grid"]["references"].get<std::size_t>(), j["grid"]["empty_cells"].get<std::size_t>());
+}
+
+}  // namespace
+
+void register_scene_commands(CLI::App& app) {
+  CLI::App* scene = app.add_subcommand("scene", "Inspect or write scenes (NFF files or built-in SPD generators)");
+  scene->require_subcommand(1);
+
+  auto info = std::make_shared<InfoOptions>();
+  CLI::App* ci = scene->add_subcommand("info", "Print counts per entity kind (as the SPD programs count them)");
+  add_scene_options(*ci, info->source);
+  ci->add_flag("--json", info->json, "Print JSON instead of text");
+  ci->add_flag("--grid", info->grid, "Also build the uniform grid and print its resolution and occupancy");
+  ci->callback([info] { run_info(*info); });
+
+  auto wr = std::make_shared<WriteOptions>();
+  CLI::App* cw = scene->add_subcommand("write", "Write a scene as NFF (.nff, or .nff.gz for gzip)");
+  add_scene_options(*cw, wr->source);
+  cw->add_option("-o,--output", wr->output, "Output NFF file")->required();
+  cw->callback([wr] {
+    const core::Scene s = core::load_scene(wr->source);
+    core::write_nff_file(wr->output, s);
+  });
+}
+
+}  // namespace raynode::apps

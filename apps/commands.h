@@ -1,0 +1,29 @@
+// raynode CLI: each subcommand registers itself on the CLI11 app. Only apps/
+// catches exceptions and turns them into messages and exit codes:
+//   0 success; 1 unreadable/malformed scene or failed check (e.g. validate
+//   mismatches); 2 bad command line or bad value.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <stdexcept>
+#include <string>
+
+#include "core/scene_source.h"
+
+namespace raynode::apps {
+
+/// A usage error detected after parsing (a value CLI11 cannot check); exit 2.
+class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Adds the SCENE positional and --tessellate to a subcommand.
+void add_scene_options(CLI::App& cmd, core::SceneSource& source);
+
+void register_scene_commands(CLI::App& app);
+void register_validate_command(CLI::App& app);
+void register_bench_command(CLI::App& app);
+
+}  // namespace raynode::apps

@@ -1,0 +1,61 @@
+// raynode: entry point. Parses the command line (CLI11), runs the chosen
+// subcommand, and maps errors to one clear line on stderr and an exit code
+// (see commands.h).
+#include <fmt/core.h>
+
+#include <cstdio>
+#include <exception>
+
+#include "apps/commands.h"
+#include "core/nff.h"
+
+namespace raynode::apps {
+
+void add_scene_options(CLI::App& cmd, core::SceneSource& source) {
+  cmd.add_option("scene", source.spec,
+                 "NFF file (.nff, .nff.gz) or built-in SPD scene name[:size]: teapot, mount, rings, tetra, balls "
+                 "(e.g. teapot:8, mount:6, tetra:9)")
+      ->required();
+  cmd.add_option("--tessellate,-t", source.tessellate,
+                 "Replace spheres by 12*R^2 and cones by 8*R triangles, as SPD's -t R (0 = curved)")
+      ->check(CLI::Range(0, 1000));
+}
+
+}  // namespace raynode::apps
+
+int main(int argc, char** argv) {
+  using namespace raynode;
+  CLI::App app{"raynode: the parallel ray tracers of Badouel, Bouatouch and Priol (IEEE CG&A 1994) on an "
+               "emulated distributed-memory machine"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "raynode 0.1.0");
+  apps::register_scene_commands(app);
+  apps::register_validate_command(app);
+  apps::register_bench_command(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    fmt::print(stderr, "raynode: error: {}\nRun 'raynode --help' (or 'raynode COMMAND --help') for usage.\n",
+               e.what());
+    return 2;
+  } catch (const core::ParseError& e) {
+    fmt::print(stderr, "{}\n", e.what());
+    return 1;
+  } catch (const apps::UsageError& e) {
+    fmt::print(stderr, "raynode: error: {}\n", e.what());
+    return 2;
+  } catch (const std::invalid_argument& e) {
+    fmt::print(stderr, "raynode: error: {}\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "raynode: error: {}\n", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,35 @@
+#include "core/scene_source.h"
+
+#include <filesystem>
+#include <stdexcept>
+
+#include "core/nff.h"
+#include "core/spd.h"
+
+namespace raynode::core {
+
+bool is_scene_file(const std::string& spec) {
+  auto ends_with = [&](const char* s) {
+    const std::string suf(s);
+    return spec.size() >= suf.size() && spec.compare(spec.size() - suf.size(), suf.size(), suf) == 0;
+  };
+  std::error_code ec;
+  return ends_with(".nff") || ends_with(".nff.gz") || ends_with(".gz") ||
+         spec.find('/') != std::string::npos || std::filesystem::is_regular_file(spec, ec);
+}
+
+Scene load_scene(const SceneSource& source) {
+  if (source.tessellate < 0 || source.tessellate > 1000)
+    throw std::invalid_argument("--tessellate must be between 0 and 1000, got " +
+                                std::to_string(source.tessellate));
+  if (is_scene_file(source.spec)) {
+    Scene s = read_nff(source.spec);
+    if (source.tessellate > 0) tessellate_scene(s, source.tessellate);
+    return s;
+  }
+  SpdParams p = parse_spd_spec(source.spec);
+  p.tessellate = source.tessellate;
+  return make_spd_scene(p);
+}
+
+}  // namespace raynode::core

@@ -1,0 +1,28 @@
+// Where a scene comes from: an NFF file or a built-in SPD generator.
+//
+// Place in the data flow: the SCENE argument of every raynode subcommand ->
+// load_scene -> Scene. A spec naming an existing file, or ending in `.nff`
+// or `.nff.gz`, is read as NFF; anything else is parsed as `name[:size]` of a
+// built-in generator (spd.h).
+#pragma once
+
+#include <string>
+
+#include "core/scene.h"
+
+namespace raynode::core {
+
+struct SceneSource {
+  std::string spec;    ///< path or name[:size]
+  int tessellate = 0;  ///< --tessellate R (0 = keep curved primitives)
+};
+
+/// True if `spec` will be read as a file.
+bool is_scene_file(const std::string& spec);
+
+/// Loads the scene. Throws ParseError (malformed file, with file:line:col),
+/// std::runtime_error (unreadable file) or std::invalid_argument (unknown
+/// generator, bad size, bad tessellation).
+Scene load_scene(const SceneSource& source);
+
+}  // namespace raynode::core
