@@ -21,6 +21,7 @@ namespace raynode::core {
 /// direction onto +z.
 struct WatertightRay {
   int kx = 0, ky = 1, kz = 2;
+  int permutation = 0;  ///< index of (kx, ky, kz) in kAxisPermutations
   float sx = 0, sy = 0, sz = 1;
 
   explicit WatertightRay(const Vec3& dir) {
@@ -28,16 +29,28 @@ struct WatertightRay {
     kz = (a.x > a.y) ? (a.x > a.z ? 0 : 2) : (a.y > a.z ? 1 : 2);
     kx = (kz + 1) % 3;
     ky = (kx + 1) % 3;
+    bool swapped = false;
     if (dir[kz] < 0.0f) {  // keep the winding: swap x and y
       const int t = kx;
       kx = ky;
       ky = t;
+      swapped = true;
     }
+    permutation = 2 * kz + (swapped ? 1 : 0);
     sx = dir[kx] / dir[kz];
     sy = dir[ky] / dir[kz];
     sz = 1.0f / dir[kz];
   }
 };
+
+namespace detail {
+template <int K>
+inline float axis(const Vec3& v) {
+  if constexpr (K == 0) return v.x;
+  else if constexpr (K == 1) return v.y;
+  else return v.z;
+}
+}  // namespace detail
 
 /// Result of a triangle test: distance and barycentrics (p = u*v1 + v*v2 + (1-u-v)*v0).
 struct TriangleHit {
@@ -49,16 +62,18 @@ struct TriangleHit {
 /// functions that come out exactly zero are recomputed in double. Degenerate
 /// (zero-area) triangles never hit. Returns true with `hit` when
 /// ray.tmin < t < tmax.
-inline bool intersect_triangle(const Ray& ray, const WatertightRay& w, const Vec3& v0, const Vec3& v1,
-                               const Vec3& v2, float tmax, TriangleHit& hit) {
+template <int KX, int KY, int KZ>
+inline bool intersect_triangle_axes(const Ray& ray, const WatertightRay& w, const Vec3& v0, const Vec3& v1,
+                                    const Vec3& v2, float tmax, TriangleHit& hit) {
+  using detail::axis;
   const Vec3 a = v0 - ray.origin, b = v1 - ray.origin, c = v2 - ray.origin;
-  const float ax = a[w.kx] - w.sx * a[w.kz], ay = a[w.ky] - w.sy * a[w.kz];
-  const float bx = b[w.kx] - w.sx * b[w.kz], by = b[w.ky] - w.sy * b[w.kz];
-  const float cx = c[w.kx] - w.sx * c[w.kz], cy = c[w.ky] - w.sy * c[w.kz];
+  const float ax = axis<KX>(a) - w.sx * axis<KZ>(a), ay = axis<KY>(a) - w.sy * axis<KZ>(a);
+  const float bx = axis<KX>(b) - w.sx * axis<KZ>(b), by = axis<KY>(b) - w.sy * axis<KZ>(b);
+  const float cx = axis<KX>(c) - w.sx * axis<KZ>(c), cy = axis<KY>(c) - w.sy * axis<KZ>(c);
   float u = cx * by - cy * bx;
   float v = ax * cy - ay * cx;
   float e = bx * ay - by * ax;
-  if (u == 0.0f || v == 0.0f || e == 0.0f) {
+  if (u == 0.0f || v == 0.0f || e == 0.0f) [[unlikely]] {
     u = static_cast<float>(double(cx) * by - double(cy) * bx);
     v = static_cast<float>(double(ax) * cy - double(ay) * cx);
     e = static_cast<float>(double(bx) * ay - double(by) * ax);
@@ -66,7 +81,7 @@ inline bool intersect_triangle(const Ray& ray, const WatertightRay& w, const Vec
   if ((u < 0.0f || v < 0.0f || e < 0.0f) && (u > 0.0f || v > 0.0f || e > 0.0f)) return false;
   const float det = u + v + e;
   if (det == 0.0f) return false;
-  const float az = w.sz * a[w.kz], bz = w.sz * b[w.kz], cz = w.sz * c[w.kz];
+  const float az = w.sz * axis<KZ>(a), bz = w.sz * axis<KZ>(b), cz = w.sz * axis<KZ>(c);
   const float t_scaled = u * az + v * bz + e * cz;
   const float inv_det = 1.0f / det;
   const float t = t_scaled * inv_det;
@@ -75,6 +90,25 @@ inline bool intersect_triangle(const Ray& ray, const WatertightRay& w, const Vec
   hit.u = v * inv_det;  // weight of v1
   hit.v = e * inv_det;  // weight of v2
   return true;
+}
+
+/// Watertight ray/triangle test (Woop et al. 2013). A ray through a shared
+/// edge or vertex of a closed mesh hits at least one of the triangles: edge
+/// functions that come out exactly zero are recomputed in double. Degenerate
+/// (zero-area) triangles never hit. Returns true with `hit` when
+/// ray.tmin < t < tmax. The axis permutation is a compile-time parameter
+/// (one branch per test, the same for the whole ray) so that no vector is
+/// indexed by a run-time axis in the inner loop.
+inline bool intersect_triangle(const Ray& ray, const WatertightRay& w, const Vec3& v0, const Vec3& v1,
+                               const Vec3& v2, float tmax, TriangleHit& hit) {
+  switch (w.permutation) {
+    case 0: return intersect_triangle_axes<1, 2, 0>(ray, w, v0, v1, v2, tmax, hit);
+    case 1: return intersect_triangle_axes<2, 1, 0>(ray, w, v0, v1, v2, tmax, hit);
+    case 2: return intersect_triangle_axes<2, 0, 1>(ray, w, v0, v1, v2, tmax, hit);
+    case 3: return intersect_triangle_axes<0, 2, 1>(ray, w, v0, v1, v2, tmax, hit);
+    case 4: return intersect_triangle_axes<0, 1, 2>(ray, w, v0, v1, v2, tmax, hit);
+    default: return intersect_triangle_axes<1, 0, 2>(ray, w, v0, v1, v2, tmax, hit);
+  }
 }
 
 /// Ray/sphere test in double precision with the numerically stable quadratic

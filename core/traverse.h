@@ -98,7 +98,7 @@ struct TraversalScratch {
 };
 
 /// Tests one primitive; on a hit closer than hit.t, updates `hit`.
-inline bool intersect_primitive(const Primitive& p, std::uint32_t id, const Ray& ray, const WatertightRay& w,
+[[gnu::always_inline]] inline bool intersect_primitive(const Primitive& p, std::uint32_t id, const Ray& ray, const WatertightRay& w,
                                 Hit& hit, TraversalStats& stats) {
   switch (p.kind) {
     case PrimitiveKind::kTriangle: {
