@@ -25,5 +25,6 @@ void add_scene_options(CLI::App& cmd, core::SceneSource& source);
 void register_scene_commands(CLI::App& app);
 void register_validate_command(CLI::App& app);
 void register_bench_command(CLI::App& app);
+void register_render_command(CLI::App& app);
 
 }  // namespace raynode::apps

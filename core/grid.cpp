@@ -183,6 +183,26 @@ Grid build_grid(const Database& db, const GridParams& params) {
                 dmax += far * far;
               }
               in = dmin <= r * r && dmax >= r * r;
+            } else {
+              // Cone: the cell's bounding sphere must reach the capsule
+              // around the axis segment with the larger radius (conservative;
+              // much tighter than the box for long, thin, slanted cylinders).
+              const double b0[3] = {p.data[0], p.data[1], p.data[2]};
+              const double ax[3] = {double(p.data[4]) - b0[0], double(p.data[5]) - b0[1],
+                                    double(p.data[6]) - b0[2]};
+              const double len2 = ax[0] * ax[0] + ax[1] * ax[1] + ax[2] * ax[2];
+              double s = 0;
+              if (len2 > 0)
+                s = std::clamp(((c[0] - b0[0]) * ax[0] + (c[1] - b0[1]) * ax[1] + (c[2] - b0[2]) * ax[2]) / len2,
+                               0.0, 1.0);
+              double d2 = 0;
+              for (int a = 0; a < 3; ++a) {
+                const double q = b0[a] + s * ax[a] - c[a];
+                d2 += q * q;
+              }
+              const double reach = std::max(std::fabs(double(p.data[3])), std::fabs(double(p.data[7]))) +
+                                   std::sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
+              in = d2 <= reach * reach;
             }
           }
           if (in) pairs.emplace_back(info.cell_index(x, y, z), pi);

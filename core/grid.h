@@ -19,7 +19,8 @@
 // a cell plus a few ulps of the grid's coordinate magnitude), so rounding in
 // the 3D-DDA can never skip a primitive. Triangles use the separating-axis
 // triangle/box test (Akenine-Moeller 2001), spheres the box/sphere distance
-// test (Arvo 1990), cones their bounding box.
+// test (Arvo 1990), cones a capsule test (the cell's bounding sphere against
+// the axis segment grown by the larger radius).
 #pragma once
 
 #include <cstdint>
