@@ -106,13 +106,6 @@ struct Flake {
   }
 };
 
-double phong_power(double half_angle_deg) {
-  const double a = kPi * half_angle_deg / 180.0;
-  if (a <= 0.0) return 100000.0;
-  if (a >= kPi / 2.0) return 1.0;
-  return std::log(0.5) / std::log(std::cos(a));
-}
-
 }  // namespace
 
 Scene make_balls(int size) {

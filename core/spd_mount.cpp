@@ -124,13 +124,6 @@ void add_sphere_pyramid(Scene& scene, const D3& center, double r) {
   for (int i = 0; i < 3; ++i) add(rotate(tipped, {0.0, 0.0, 1.0}, i * 2.0 * kPi / 3.0));
 }
 
-double phong_power(double half_angle_deg) {
-  const double a = kPi * half_angle_deg / 180.0;
-  if (a <= 0.0) return 100000.0;
-  if (a >= kPi / 2.0) return 1.0;
-  return std::log(0.5) / std::log(std::cos(a));
-}
-
 }  // namespace
 
 Scene make_mount(int size) {

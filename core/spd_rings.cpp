@@ -60,13 +60,6 @@ Vec3 to_vec3(const D3& p) {
   return {static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)};
 }
 
-double phong_power(double half_angle_deg) {
-  const double a = kPi * half_angle_deg / 180.0;
-  if (a <= 0.0) return 100000.0;
-  if (a >= kPi / 2.0) return 1.0;
-  return std::log(0.5) / std::log(std::cos(a));
-}
-
 }  // namespace
 
 Scene make_rings(int size) {

@@ -77,17 +77,6 @@ Vec3 to_float(const DVec3& a) {
   return {static_cast<float>(a.x), static_cast<float>(a.y), static_cast<float>(a.z)};
 }
 
-/// Phong exponent for a highlight that falls to half strength at
-/// `half_angle_deg` degrees: ln(0.5) / ln(cos angle); 100000 ("no
-/// highlight") at 0 and 1 at 90 degrees or more (SPD lib_output_color).
-double phong_exponent(double half_angle_deg) {
-  const double kPi = 3.14159265358979323846;
-  const double a = kPi * half_angle_deg / 180.0;
-  if (a <= 0.0) return 100000.0;
-  if (a >= kPi / 2.0) return 1.0;
-  return std::log(0.5) / std::log(std::cos(a));
-}
-
 /// NFF material as SPD writes it: `f r g b kd ks shine T ior`. SPD's teapot
 /// passes ior 0 for its opaque surfaces, and the file carries that 0.
 Material spd_material(Vec3 color, double kd, double ks, double half_angle_deg) {
@@ -95,7 +84,7 @@ Material spd_material(Vec3 color, double kd, double ks, double half_angle_deg) {
   m.color = color;
   m.kd = static_cast<float>(kd);
   m.ks = static_cast<float>(ks);
-  m.shine = static_cast<float>(phong_exponent(half_angle_deg));
+  m.shine = static_cast<float>(phong_power(half_angle_deg));
   m.transmittance = 0.0f;
   m.ior = 0.0f;
   return m;
