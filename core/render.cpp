@@ -1,0 +1,35 @@
+#include "core/render.h"
+
+#include <stdexcept>
+
+namespace raynode::core {
+
+RenderMode parse_render_mode(const std::string& name) {
+  if (name == "sequential") return RenderMode::kSequential;
+  if (name == "shared") return RenderMode::kShared;
+  throw std::invalid_argument("unknown render mode '" + name + "' (expected sequential or shared)");
+}
+
+const char* render_mode_name(RenderMode mode) {
+  switch (mode) {
+    case RenderMode::kSequential: return "sequential";
+    case RenderMode::kShared: return "shared";
+  }
+  return "?";
+}
+
+View render_view(const Database& db) {
+  if (db.has_view) return db.view;
+  View view = db.view;
+  view.at = db.bounds.empty() ? Vec3{0, 0, 0} : db.bounds.center();
+  const float size = db.bounds.empty() ? 1.0f : length(db.bounds.extent());
+  view.from = view.at + Vec3{0.3f, -0.4f, 0.866f} * (1.5f * (size > 0.0f ? size : 1.0f));
+  view.up = {0, 0, 1};
+  return view;
+}
+
+RenderResult render(const Database& db, const Grid& grid, const RenderParams& params) {
+  return render_image(DirectView(db, grid), db, params);
+}
+
+}  // namespace raynode::core

@@ -1,0 +1,158 @@
+// The Whitted renderer over a database view: pixels -> camera rays ->
+// trace_ray (shade.h) -> a float RGB image (+ a depth AOV).
+//
+// Place in the data flow: Database + Grid -> a database view (DirectView
+// here; svm/dataflow views later) -> render_pixel for each pixel ->
+// core::Image -> imageio::write_image (apps only). Sequential and shared
+// modes compute each pixel with the same code, independent of the thread,
+// so their images are bit-identical.
+//
+// Supersampling: --spp N fires N x N rays per pixel at the fixed stratified
+// offsets ((i + 0.5) / N, (j + 0.5) / N) within the pixel (no randomness),
+// and averages them in a fixed order.
+#pragma once
+
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <string>
+
+#include "core/camera.h"
+#include "core/database.h"
+#include "core/direct_view.h"
+#include "core/grid.h"
+#include "core/image.h"
+#include "core/shade.h"
+#include "core/traverse.h"
+
+namespace raynode::core {
+
+/// How the pixels are distributed.
+enum class RenderMode { kSequential, kShared };
+
+/// Parses "sequential" / "shared"; throws std::invalid_argument otherwise.
+RenderMode parse_render_mode(const std::string& name);
+const char* render_mode_name(RenderMode mode);
+
+/// Render options; every field has a default.
+struct RenderParams {
+  int width = 0;            ///< pixels; 0 = the view's resolution
+  int height = 0;           ///< pixels; 0 = the view's resolution
+  int spp = 1;              ///< N: N x N stratified samples per pixel, N >= 1
+  int max_depth = 5;        ///< ray levels (eye ray = 1), >= 1
+  float min_weight = 0.0f;  ///< Hall & Greenberg pruning threshold, 0 = off
+  bool depth_aov = false;   ///< also produce the depth image
+  RenderMode mode = RenderMode::kSequential;
+  int tile_size = 16;       ///< shared mode: square tiles of this many pixels
+};
+
+/// A rendered frame.
+struct RenderResult {
+  Image color;       ///< linear RGB, width x height
+  Image depth;       ///< 1 channel: eye-to-first-hit distance through the pixel centre, +inf on a miss; empty unless requested
+  RenderStats stats; ///< summed over all threads
+};
+
+/// One pixel's results.
+struct PixelResult {
+  Vec3 color;
+  float depth = kInfinity;
+};
+
+/// The view used for rendering `db`: its file view, or (no view block) one
+/// looking at the centre of the bounds from a fixed oblique direction.
+View render_view(const Database& db);
+
+/// Colour (and centre depth) of pixel (x, y), 0 <= x < width, 0 <= y < height
+/// of `camera`. Casts spp x spp primary rays; when `want_depth` and spp is even
+/// one extra primary ray through the centre. Owner thread of `scratch` only.
+template <class View>
+PixelResult render_pixel(const View& view, const ShadingContext& ctx, const Camera& camera, int x, int y, int spp,
+                         bool want_depth, ShadingScratch& scratch) {
+  PixelResult out;
+  Vec3 sum;
+  const float inv = 1.0f / float(spp);
+  const bool centre_sampled = (spp % 2) == 1;
+  const int centre = spp / 2;
+  for (int j = 0; j < spp; ++j)
+    for (int i = 0; i < spp; ++i) {
+      const Ray r = camera.ray_through(float(x) + (float(i) + 0.5f) * inv, float(y) + (float(j) + 0.5f) * inv);
+      ++scratch.stats.rays.primary;
+      const bool is_centre = centre_sampled && i == centre && j == centre;
+      sum += trace_ray(view, ctx, r, 1, 1.0f, scratch, is_centre ? &out.depth : nullptr);
+    }
+  out.color = sum * (1.0f / float(spp * spp));
+  if (want_depth && !centre_sampled) {
+    const Ray r = camera.ray_through(float(x) + 0.5f, float(y) + 0.5f);
+    ++scratch.stats.rays.primary;
+    Hit hit;
+    out.depth = intersect_closest(view, r, hit, scratch.traversal) ? hit.t : kInfinity;
+  }
+  return out;
+}
+
+/// Renders pixels [x0, x1) x [y0, y1) into `result` (images already sized).
+template <class View>
+void render_rect(const View& view, const ShadingContext& ctx, const Camera& camera, const RenderParams& params,
+                 int x0, int y0, int x1, int y1, RenderResult& result, ShadingScratch& scratch) {
+  for (int y = y0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x) {
+      const PixelResult px = render_pixel(view, ctx, camera, x, y, params.spp, params.depth_aov, scratch);
+      float* c = result.color.at(x, y);
+      c[0] = px.color.x;
+      c[1] = px.color.y;
+      c[2] = px.color.z;
+      if (params.depth_aov) *result.depth.at(x, y) = px.depth;
+    }
+}
+
+/// Renders the whole image in params.mode. Sequential: one thread, row by
+/// row. Shared: tbb::parallel_for over tile_size^2 tiles, one ShadingScratch
+/// per worker thread (tbb::enumerable_thread_specific), counters merged at
+/// the end. Throws std::invalid_argument for bad params or camera.
+template <class View>
+RenderResult render_image(const View& view, const Database& db, const RenderParams& params) {
+  if (params.spp < 1) throw std::invalid_argument("spp must be >= 1");
+  if (params.max_depth < 1) throw std::invalid_argument("max depth must be >= 1");
+  if (params.tile_size < 1) throw std::invalid_argument("tile size must be >= 1");
+  const View& v = view;
+  const core::View cam_view = render_view(db);
+  const int w = params.width > 0 ? params.width : cam_view.width;
+  const int h = params.height > 0 ? params.height : cam_view.height;
+  const Camera camera(cam_view, w, h);
+  const ShadingContext ctx = make_shading_context(db, params.max_depth, params.min_weight);
+  RenderResult result;
+  result.color = Image(w, h, 3);
+  if (params.depth_aov) result.depth = Image(w, h, 1);
+  if (params.mode == RenderMode::kSequential) {
+    ShadingScratch scratch;
+    render_rect(v, ctx, camera, params, 0, 0, w, h, result, scratch);
+    result.stats = scratch.stats;
+    result.stats.traversal = scratch.traversal.stats;
+    return result;
+  }
+  const int ts = params.tile_size;
+  const int tx = (w + ts - 1) / ts, ty = (h + ts - 1) / ts;
+  tbb::enumerable_thread_specific<ShadingScratch> scratches;
+  tbb::parallel_for(tbb::blocked_range<int>(0, tx * ty, 1), [&](const tbb::blocked_range<int>& range) {
+    ShadingScratch& scratch = scratches.local();
+    for (int t = range.begin(); t != range.end(); ++t) {
+      const int x0 = (t % tx) * ts, y0 = (t / tx) * ts;
+      render_rect(v, ctx, camera, params, x0, y0, std::min(x0 + ts, w), std::min(y0 + ts, h), result, scratch);
+    }
+  });
+  for (const ShadingScratch& s : scratches) {
+    RenderStats part = s.stats;
+    part.traversal = s.traversal.stats;
+    result.stats += part;
+  }
+  return result;
+}
+
+/// render_image over the plain arrays (DirectView).
+RenderResult render(const Database& db, const Grid& grid, const RenderParams& params);
+
+}  // namespace raynode::core

@@ -1,0 +1,257 @@
+// Whitted shading of NFF materials (the SPD shading model): one ray in, one
+// colour out, recursing into reflected and refracted rays.
+//
+// Place in the data flow: camera ray (render.h) -> trace_ray -> closest hit
+// through a database view (traverse.h) -> shade: ambient + per-light shadow
+// ray, Lambert and Phong terms + Ks * reflected ray + T * refracted ray.
+// Written against the database-view concept of traverse.h, so every mode
+// (sequential, shared, replicated, svm, dataflow) shades with this code.
+//
+// The model (../shared/scenes/NFF-NOTES.md, "Shading model"; Whitted, "An
+// Improved Illumination Model for Shaded Display", CACM 1980):
+//   I = I_a*Kd*C + sum_lights vis * I_l * Lc * (Kd*C*max(0,N.L) + Ks*max(0,R.V)^Shine)
+//       + Ks*I_reflect + T*I_refract
+// Policies (documented choices where NFF is silent):
+// * Intensities: each light and the ambient term get sqrt(L)/(2L), L = number
+//   of lights (SPD's suggestion); with no lights the ambient gets 1/2.
+// * Ambient coefficient Ka = Kd (NFF has no Ka).
+// * Highlight weight = Ks (NFF-NOTES gotcha 4); skipped when Ks = 0 or when
+//   Shine >= 100000 (the "no highlight" marker). The highlight is white times
+//   the light colour.
+// * Two-sided shading: the normal is face-forwarded towards the incoming ray
+//   for every primitive, which renders the teapot double-sided (the lid gap
+//   shows the inside) and is identical to one-sided shading for every surface
+//   seen from its front. Entering/exiting for refraction uses the sign of
+//   N.D with the unflipped geometric normal.
+// * `pp` triangles: shading normal = barycentric interpolation of the vertex
+//   normals (Hit::u weights v1, Hit::v weights v2), flipped with the
+//   geometric normal.
+// * Secondary-ray origins are offset along the face-forwarded geometric
+//   normal by 1e-4 * (1 + max|coordinate of the hit|) world units, so the
+//   offset scales with the magnitude (and float spacing) of the hit point.
+// * Shadow rays are not cast when the shading normal faces away from the
+//   light (N.L <= 0). Depth: the eye ray is level 1; no secondary ray is
+//   spawned from level max_depth. Min-weight pruning (Hall & Greenberg,
+//   "A Testbed for Realistic Image Synthesis", IEEE CG&A 1983): a child ray
+//   whose weight (product of Ks / T factors along the path) is below
+//   min_weight is not cast.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+#include "core/database.h"
+#include "core/intersect.h"
+#include "core/math.h"
+#include "core/traverse.h"
+
+namespace raynode::core {
+
+/// Shine values at or above this are SPD's "no highlight" marker.
+inline constexpr float kNoHighlightShine = 100000.0f;
+
+/// Rays cast, by kind.
+struct RayCounts {
+  std::uint64_t primary = 0;
+  std::uint64_t shadow = 0;
+  std::uint64_t reflected = 0;
+  std::uint64_t refracted = 0;  ///< includes total-internal-reflection rays spawned for T
+  std::uint64_t total() const { return primary + shadow + reflected + refracted; }
+  RayCounts& operator+=(const RayCounts& o) {
+    primary += o.primary;
+    shadow += o.shadow;
+    reflected += o.reflected;
+    refracted += o.refracted;
+    return *this;
+  }
+};
+
+/// Rays not cast, by reason.
+struct SkipCounts {
+  std::uint64_t reflection_ks0 = 0;     ///< hit with Ks = 0: no reflected ray
+  std::uint64_t refraction_t0 = 0;      ///< hit with T = 0: no refracted ray
+  std::uint64_t shadow_backfacing = 0;  ///< light behind the shading normal
+  std::uint64_t highlight_marker = 0;   ///< Shine >= 100000 with Ks > 0: no highlight
+  std::uint64_t depth_limit = 0;        ///< reflected/refracted ray not cast at max depth
+  std::uint64_t min_weight = 0;         ///< reflected/refracted ray below min_weight
+  SkipCounts& operator+=(const SkipCounts& o) {
+    reflection_ks0 += o.reflection_ks0;
+    refraction_t0 += o.refraction_t0;
+    shadow_backfacing += o.shadow_backfacing;
+    highlight_marker += o.highlight_marker;
+    depth_limit += o.depth_limit;
+    min_weight += o.min_weight;
+    return *this;
+  }
+};
+
+/// All counters of a render (or of one thread's share of it).
+struct RenderStats {
+  RayCounts rays;
+  SkipCounts skipped;
+  TraversalStats traversal;
+  RenderStats& operator+=(const RenderStats& o) {
+    rays += o.rays;
+    skipped += o.skipped;
+    traversal += o.traversal;
+    return *this;
+  }
+};
+
+/// What shading needs besides the view's primitives: materials, lights,
+/// `pp` vertex normals, background, intensities, recursion limits. Refers
+/// to (does not own) the database, which must outlive it. Read-only, so it
+/// may be shared by any number of threads.
+struct ShadingContext {
+  const Database* db = nullptr;
+  float light_intensity = 0.5f;    ///< per light, sqrt(L)/(2L)
+  float ambient_intensity = 0.5f;  ///< sqrt(L)/(2L), 1/2 with no lights
+  int max_depth = 5;               ///< ray levels, eye ray = 1
+  float min_weight = 0.0f;         ///< Hall & Greenberg pruning threshold (0 = off)
+};
+
+/// Builds the context for `db` with SPD's intensities. max_depth >= 1.
+inline ShadingContext make_shading_context(const Database& db, int max_depth = 5, float min_weight = 0.0f) {
+  ShadingContext c;
+  c.db = &db;
+  const std::size_t n = db.lights.size();
+  const float i = n == 0 ? 0.5f : float(std::sqrt(double(n)) / (2.0 * double(n)));
+  c.light_intensity = i;
+  c.ambient_intensity = i;
+  c.max_depth = max_depth;
+  c.min_weight = min_weight;
+  return c;
+}
+
+/// Offset of secondary-ray origins from a hit at `p`, in world units.
+inline float ray_offset(const Vec3& p) { return 1e-4f * (1.0f + max_component(abs(p))); }
+
+/// Per-thread mutable state of shading: traversal scratch and counters.
+struct ShadingScratch {
+  TraversalScratch traversal;
+  RenderStats stats;
+};
+
+/// Colour seen along `ray` (level `depth`, 1 = eye ray; `weight` = its
+/// contribution factor to the pixel). Counts the rays it casts (not `ray`
+/// itself: the caller counts that by kind). `hit_t_out`, when non-null,
+/// receives the distance of the first hit (+inf on a miss). Owner thread of
+/// `scratch` only.
+template <class View>
+Vec3 trace_ray(const View& view, const ShadingContext& ctx, const Ray& ray, int depth, float weight,
+               ShadingScratch& scratch, float* hit_t_out = nullptr) {
+  const Database& db = *ctx.db;
+  RenderStats& st = scratch.stats;
+  Hit hit;
+  if (!intersect_closest(view, ray, hit, scratch.traversal)) {
+    if (hit_t_out) *hit_t_out = kInfinity;
+    return db.background;
+  }
+  if (hit_t_out) *hit_t_out = hit.t;
+  const Primitive& prim = view.primitive(hit.primitive);
+  const Material& m = db.materials[prim.material];
+  const Vec3 d = normalize(ray.direction);
+  const Vec3 p = ray.at(hit.t);
+
+  // Geometric normal: raw (for entering/exiting) and face-forwarded.
+  Vec3 ng = geometric_normal(prim, p);
+  const float ng_len = length(ng);
+  ng = ng_len > 0.0f ? ng * (1.0f / ng_len) : -d;
+  const bool front = dot(ng, d) < 0.0f;  // ray arrives at the front side
+  const Vec3 nf = front ? ng : -ng;
+  // Shading normal, flipped together with the geometric one.
+  Vec3 ns = nf;
+  if (prim.kind == PrimitiveKind::kTriangle && prim.normals != kNoNormals) {
+    const TriangleNormals& vn = db.vertex_normals[prim.normals];
+    const Vec3 n = vn.n[0] * (1.0f - hit.u - hit.v) + vn.n[1] * hit.u + vn.n[2] * hit.v;
+    const float len = length(n);
+    if (len > 0.0f && std::isfinite(len)) ns = front ? n * (1.0f / len) : n * (-1.0f / len);
+  }
+  const float eps = ray_offset(p);
+  const Vec3 above = p + nf * eps;  // on the side the ray came from
+  const Vec3 below = p - nf * eps;
+  const Vec3 v = -d;
+
+  Vec3 color = m.color * (m.kd * ctx.ambient_intensity);
+
+  const bool highlight = m.ks > 0.0f && m.shine < kNoHighlightShine;
+  for (const Light& light : db.lights) {
+    const Vec3 to_light = light.position - above;
+    const float dist = length(to_light);
+    if (!(dist > 0.0f)) continue;
+    const Vec3 l = to_light * (1.0f / dist);
+    const float ndotl = dot(ns, l);
+    if (ndotl <= 0.0f) {
+      ++st.skipped.shadow_backfacing;
+      continue;
+    }
+    ++st.rays.shadow;
+    const Ray shadow{above, to_light, 0.0f, 1.0f};
+    if (intersect_any(view, shadow, scratch.traversal)) continue;
+    Vec3 c = m.color * (m.kd * ndotl);
+    if (highlight) {
+      const Vec3 r = ns * (2.0f * ndotl) - l;
+      const float rv = dot(r, v);
+      if (rv > 0.0f) c += Vec3{1.0f, 1.0f, 1.0f} * (m.ks * std::pow(rv, m.shine));
+    } else if (m.ks > 0.0f) {
+      ++st.skipped.highlight_marker;
+    }
+    color += c * light.color * ctx.light_intensity;
+  }
+
+  // May a child ray of weight w be cast? Counts the skip reason otherwise.
+  auto may_spawn = [&](float w) {
+    if (depth >= ctx.max_depth) {
+      ++st.skipped.depth_limit;
+      return false;
+    }
+    if (w < ctx.min_weight) {
+      ++st.skipped.min_weight;
+      return false;
+    }
+    return true;
+  };
+  // Mirror direction about ns; falls back to the geometric normal when the
+  // interpolated normal would send it below the surface.
+  auto reflect_dir = [&]() {
+    Vec3 r = d - ns * (2.0f * dot(d, ns));
+    if (dot(r, nf) <= 0.0f) r = d - nf * (2.0f * dot(d, nf));
+    return r;
+  };
+
+  if (m.ks > 0.0f) {
+    const float w = weight * m.ks;
+    if (may_spawn(w)) {
+      const Ray r{above, reflect_dir(), 0.0f, kInfinity};
+      if (is_valid_ray(r)) {
+        ++st.rays.reflected;
+        color += trace_ray(view, ctx, r, depth + 1, w, scratch) * m.ks;
+      }
+    }
+  } else {
+    ++st.skipped.reflection_ks0;
+  }
+
+  if (m.transmittance > 0.0f) {
+    const float w = weight * m.transmittance;
+    if (may_spawn(w)) {
+      const float ior = m.ior > 0.0f ? m.ior : 1.0f;
+      const float eta = front ? 1.0f / ior : ior;  // n_from / n_to
+      const float cosi = -dot(d, ns);
+      const float k = 1.0f - eta * eta * (1.0f - cosi * cosi);
+      Vec3 dir;
+      if (k < 0.0f) dir = reflect_dir();  // total internal reflection
+      else dir = d * eta + ns * (eta * cosi - std::sqrt(k));
+      const Ray r{dot(dir, nf) > 0.0f ? above : below, dir, 0.0f, kInfinity};
+      if (is_valid_ray(r)) {
+        ++st.rays.refracted;
+        color += trace_ray(view, ctx, r, depth + 1, w, scratch) * m.transmittance;
+      }
+    }
+  } else {
+    ++st.skipped.refraction_t0;
+  }
+  return color;
+}
+
+}  // namespace raynode::core

@@ -1,0 +1,26 @@
+// Image output through OpenImageIO.
+//
+// Place in the data flow: core::Image (render.h) -> write_image -> a file
+// whose format OpenImageIO picks from the extension (.png, .exr, .tif,
+// .ppm, .jpg, ...).
+#pragma once
+
+#include <string>
+
+#include "core/image.h"
+
+namespace raynode::imageio {
+
+/// True when the extension of `path` names a float (HDR) format: .exr, .hdr.
+bool is_float_format(const std::string& path);
+
+/// Writes `image` (linear floats, 1 or 3 channels) to `path`. Float formats
+/// (.exr, .hdr) get the floats unchanged (EXR: 32-bit float); every other
+/// format gets 8 bits per channel, each value clamped to [0, 1], times 255,
+/// rounded to nearest. The file is written under a temporary name in the
+/// same directory and renamed into place, so a failure leaves no partial
+/// file at `path`. Throws std::runtime_error with OpenImageIO's message
+/// (unknown extension, unwritable directory, ...).
+void write_image(const std::string& path, const core::Image& image);
+
+}  // namespace raynode::imageio
