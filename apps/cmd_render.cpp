@@ -54,6 +54,8 @@ void run_render(const RenderOptions& o) {
   }
   if (!imageio::is_float_format(o.output) && std::filesystem::path(o.output).extension().empty())
     throw UsageError("output '" + o.output + "' has no extension to choose the image format");
+  if (!imageio::can_write_format(o.output))
+    throw UsageError("no image writer for the extension of '" + o.output + "' (try .png, .exr, .tif, .ppm)");
 
   const core::Scene scene = core::load_scene(o.source);
   const core::Database db = core::make_database(scene);

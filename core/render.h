@@ -67,19 +67,21 @@ struct PixelResult {
 View render_view(const Database& db);
 
 /// Colour (and centre depth) of pixel (x, y), 0 <= x < width, 0 <= y < height
-/// of `camera`. Casts spp x spp primary rays; when `want_depth` and spp is even
-/// one extra primary ray through the centre. Owner thread of `scratch` only.
+/// of `camera`. Casts spp x spp primary rays at offsets ((i + 0.5) / spp,
+/// (j + 0.5) / spp); for odd spp the middle one passes exactly through the
+/// pixel centre and gives the depth; when `want_depth` and spp is even, one
+/// extra primary ray (counted as primary) is cast through the centre. Owner thread of `scratch` only.
 template <class View>
 PixelResult render_pixel(const View& view, const ShadingContext& ctx, const Camera& camera, int x, int y, int spp,
                          bool want_depth, ShadingScratch& scratch) {
   PixelResult out;
   Vec3 sum;
-  const float inv = 1.0f / float(spp);
+  const float n = float(spp);
   const bool centre_sampled = (spp % 2) == 1;
   const int centre = spp / 2;
   for (int j = 0; j < spp; ++j)
     for (int i = 0; i < spp; ++i) {
-      const Ray r = camera.ray_through(float(x) + (float(i) + 0.5f) * inv, float(y) + (float(j) + 0.5f) * inv);
+      const Ray r = camera.ray_through(float(x) + (float(i) + 0.5f) / n, float(y) + (float(j) + 0.5f) / n);
       ++scratch.stats.rays.primary;
       const bool is_centre = centre_sampled && i == centre && j == centre;
       sum += trace_ray(view, ctx, r, 1, 1.0f, scratch, is_centre ? &out.depth : nullptr);

@@ -30,6 +30,12 @@ bool is_float_format(const std::string& path) {
   return ext == ".exr" || ext == ".hdr";
 }
 
+bool can_write_format(const std::string& path) {
+  auto out = OIIO::ImageOutput::create(path);
+  if (!out) OIIO::geterror();  // clear the pending message
+  return bool(out);
+}
+
 void write_image(const std::string& path, const core::Image& image) {
   namespace fs = std::filesystem;
   if (image.width < 1 || image.height < 1 || image.channels < 1 ||

@@ -14,6 +14,9 @@ namespace raynode::imageio {
 /// True when the extension of `path` names a float (HDR) format: .exr, .hdr.
 bool is_float_format(const std::string& path);
 
+/// True when OpenImageIO has a writer for the extension of `path`.
+bool can_write_format(const std::string& path);
+
 /// Writes `image` (linear floats, 1 or 3 channels) to `path`. Float formats
 /// (.exr, .hdr) get the floats unchanged (EXR: 32-bit float); every other
 /// format gets 8 bits per channel, each value clamped to [0, 1], times 255,
