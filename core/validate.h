@@ -19,8 +19,11 @@
 // the ray and the hit surface's normal (a float t is ill-conditioned for
 // grazing rays) (the primitive may differ when t agrees: shared edges),
 // or the any-hit answers differ. Every disagreement is refereed by a
-// brute-force closest hit over all primitives in double precision; when the
-// grid agrees with the referee it is counted as an oracle error (Embree's
+// brute-force closest hit over all primitives in double precision, computed
+// twice, with triangles shrunk and grown by a relative barycentric margin of
+// 1e-5 / max(|cos a|, 1e-4) (a ray that close to an edge, e.g. grazing a silhouette, may go
+// either way in float); when the grid's hit distance lies between the two
+// referee answers it is counted as an oracle error (Embree's
 // robust mode inflates triangles a little; its float sphere test loses
 // digits on small, distant spheres), not as a mismatch.
 #pragma once
