@@ -19,10 +19,6 @@ constexpr int kMinSize = 1;
 constexpr int kMaxSize = 7;  // 9^7: 5.4M spheres
 constexpr double kPi = 3.141592653589793;  // SPD's PI
 
-struct D3 {
-  double x = 0, y = 0, z = 0;
-};
-
 // 3x3 rotation in SPD's layout: a row vector p maps to p * m.
 using Mat3 = std::array<std::array<double, 3>, 3>;
 

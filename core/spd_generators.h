@@ -10,6 +10,23 @@
 
 namespace raynode::core::spd {
 
+/// A point or direction in double precision, as the SPD programs compute.
+struct D3 {
+  double x = 0, y = 0, z = 0;
+};
+
+/// Right-handed rotation of p by `angle` radians about the unit axis a
+/// (SPD's lib_create_axis_rotate_matrix applied to a row vector).
+inline D3 rotate(const D3& p, const D3& a, double angle) {
+  const double c = std::cos(angle), s = std::sin(angle), t = 1.0 - c;
+  return {p.x * (a.x * a.x + (1.0 - a.x * a.x) * c) + p.y * (a.x * a.y * t - a.z * s) +
+              p.z * (a.x * a.z * t + a.y * s),
+          p.x * (a.x * a.y * t + a.z * s) + p.y * (a.y * a.y + (1.0 - a.y * a.y) * c) +
+              p.z * (a.y * a.z * t - a.x * s),
+          p.x * (a.x * a.z * t - a.y * s) + p.y * (a.y * a.z * t + a.x * s) +
+              p.z * (a.z * a.z + (1.0 - a.z * a.z) * c)};
+}
+
 /// SPD's PI.
 inline constexpr double kSpdPi = 3.141592653589793;
 

@@ -92,22 +92,6 @@ struct Mountain {
   }
 };
 
-struct D3 {
-  double x, y, z;
-};
-
-// Right-handed rotation of p by `angle` radians about the unit axis a
-// (SPD's lib_create_axis_rotate_matrix applied to a row vector).
-D3 rotate(const D3& p, const D3& a, double angle) {
-  const double c = std::cos(angle), s = std::sin(angle), t = 1.0 - c;
-  return {p.x * (a.x * a.x + (1.0 - a.x * a.x) * c) + p.y * (a.x * a.y * t - a.z * s) +
-              p.z * (a.x * a.z * t + a.y * s),
-          p.x * (a.x * a.y * t + a.z * s) + p.y * (a.y * a.y + (1.0 - a.y * a.y) * c) +
-              p.z * (a.y * a.z * t - a.x * s),
-          p.x * (a.x * a.z * t - a.y * s) + p.y * (a.y * a.z * t + a.x * s) +
-              p.z * (a.z * a.z + (1.0 - a.z * a.z) * c)};
-}
-
 // A tetrahedral pyramid of four spheres of radius r touching each other:
 // the top one at centre + (0, 0, r sqrt(3/2)), then that offset tipped by
 // acos(-1/3) about (1,1,0)/sqrt 2 and turned by 0, 120, 240 degrees about Z.

@@ -22,10 +22,6 @@ constexpr double kPi = 3.141592653589793;  // SPD's PI
 constexpr double kRadius = 0.07412;        // cylinder and sphere radius
 constexpr double kSpreadOut = 1.0;         // > 1 spreads succeeding layers out more
 
-struct D3 {
-  double x, y, z;
-};
-
 // Right-handed rotations about X and Z applied to a row vector, as SPD's
 // lib_create_rotate_matrix + lib_transform_point compute them.
 D3 rotate_x(const D3& p, double angle) {

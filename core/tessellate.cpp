@@ -23,16 +23,16 @@
 #include <vector>
 
 #include "core/spd.h"
+#include "core/spd_generators.h"
 
 namespace raynode::core {
 namespace {
 
+using spd::D3;
+using spd::rotate;
+
 constexpr double kPi = 3.141592653589793;  // SPD's PI
 constexpr double kParallelEpsilon = 1e-6;  // SPD's EPSILON2 (def.h)
-
-struct D3 {
-  double x = 0, y = 0, z = 0;
-};
 
 D3 to_d3(const Vec3& v) { return {v.x, v.y, v.z}; }
 Vec3 to_vec3(const D3& p) {
@@ -50,18 +50,6 @@ double normalize_in_place(D3& a) {
   const double len = norm(a);
   if (len > 0.0) a = {a.x / len, a.y / len, a.z / len};
   return len;
-}
-
-// Right-handed rotation of p by `angle` radians about the unit axis a
-// (SPD's lib_create_axis_rotate_matrix applied to a row vector).
-D3 rotate(const D3& p, const D3& a, double angle) {
-  const double c = std::cos(angle), s = std::sin(angle), t = 1.0 - c;
-  return {p.x * (a.x * a.x + (1.0 - a.x * a.x) * c) + p.y * (a.x * a.y * t - a.z * s) +
-              p.z * (a.x * a.z * t + a.y * s),
-          p.x * (a.x * a.y * t + a.z * s) + p.y * (a.y * a.y + (1.0 - a.y * a.y) * c) +
-              p.z * (a.y * a.z * t - a.x * s),
-          p.x * (a.x * a.z * t - a.y * s) + p.y * (a.y * a.z * t + a.x * s) +
-              p.z * (a.z * a.z + (1.0 - a.z * a.z) * c)};
 }
 
 // SPD's lib_rotate_cube_face(vec, Z_AXIS, face): a quarter turn that carries

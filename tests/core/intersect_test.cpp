@@ -16,22 +16,15 @@
 #include "core/intersect.h"
 #include "core/math.h"
 
+#include "test_random.h"
+
 namespace {
 
 using namespace raynode::core;
-using Rng = std::mt19937_64;
-
-float uniform(Rng& rng, float lo, float hi) { return std::uniform_real_distribution<float>(lo, hi)(rng); }
-
-Vec3 random_unit(Rng& rng) {
-  std::normal_distribution<float> n(0.0f, 1.0f);
-  for (;;) {
-    const Vec3 v{n(rng), n(rng), n(rng)};
-    if (length(v) > 1e-3f) return normalize(v);
-  }
-}
-
-Vec3 random_in_cube(Rng& rng, float h) { return {uniform(rng, -h, h), uniform(rng, -h, h), uniform(rng, -h, h)}; }
+using raynode::testing::Rng;
+using raynode::testing::random_in_cube;
+using raynode::testing::random_unit;
+using raynode::testing::uniform;
 
 bool sphere(const Ray& r, const Vec3& c, float radius, float& t) { return intersect_sphere(r, c, radius, r.tmax, t); }
 
