@@ -1,5 +1,6 @@
 // The Whitted renderer over a database view: pixels -> camera rays ->
-// trace_ray (shade.h) -> a float RGB image (+ a depth AOV).
+// trace_ray (shade.h) -> a float RGB image (+ depth, normal and primitive
+// AOVs of the centre ray's first hit).
 //
 // Place in the data flow: Database + Grid -> a database view (DirectView
 // here; svm/dataflow views later) -> render_pixel for each pixel ->
@@ -17,7 +18,9 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 
 #include "core/camera.h"
@@ -45,35 +48,56 @@ struct RenderParams {
   int max_depth = 5;        ///< ray levels (eye ray = 1), >= 1
   float min_weight = 0.0f;  ///< Hall & Greenberg pruning threshold, 0 = off
   bool depth_aov = false;   ///< also produce the depth image
+  bool normal_aov = false;  ///< also produce the normal image
+  bool primitive_aov = false;  ///< also produce the primitive (NFF shape index) image
   RenderMode mode = RenderMode::kSequential;
   int tile_size = 16;       ///< shared mode: square tiles of this many pixels
+  /// When non-null, render_image adds the number of finished pixels to it
+  /// (relaxed order, once per row in sequential mode, once per tile in shared
+  /// mode) so that another thread can show progress. Never read by the
+  /// renderer; it does not change the image.
+  std::atomic<std::uint64_t>* progress = nullptr;
+
+  /// True when any AOV (first-hit image) is requested.
+  bool any_aov() const { return depth_aov || normal_aov || primitive_aov; }
 };
 
-/// A rendered frame.
+/// A rendered frame. Every AOV describes the first hit of the primary ray
+/// through the pixel centre (camera.ray_through(x + 0.5, y + 0.5)).
 struct RenderResult {
-  Image color;       ///< linear RGB, width x height
-  Image depth;       ///< 1 channel: eye-to-first-hit distance through the pixel centre, +inf on a miss; empty unless requested
-  RenderStats stats; ///< summed over all threads
+  Image color;      ///< linear RGB, width x height
+  Image depth;      ///< 1 channel: eye-to-first-hit distance (world units), +inf on a miss; empty unless requested
+  Image normal;     ///< 3 channels: unit shading normal at the first hit, face-forwarded towards the eye
+                    ///< (interpolated for `pp` triangles), world space; (0, 0, 0) on a miss; empty unless requested
+  Image primitive;  ///< 1 channel: index in file order of the NFF shape (`p`, `pp`, `s`, `c` statement, counted
+                    ///< from 0 over all shapes of the scene as loaded, i.e. after --tessellate) that the hit
+                    ///< primitive came from (Primitive::shape: every triangle of a split polygon carries its
+                    ///< polygon's index); -1 on a miss. Stored as float: exact below 2^24 shapes.
+                    ///< Empty unless requested.
+  RenderStats stats;  ///< summed over all threads
 };
 
 /// One pixel's results.
 struct PixelResult {
   Vec3 color;
-  float depth = kInfinity;
+  FirstHit first;  ///< centre ray's first hit; meaningful only when requested (want_first_hit)
 };
 
 /// The view used for rendering `db`: its file view, or (no view block) one
 /// looking at the centre of the bounds from a fixed oblique direction.
 View render_view(const Database& db);
 
-/// Colour (and centre depth) of pixel (x, y), 0 <= x < width, 0 <= y < height
-/// of `camera`. Casts spp x spp primary rays at offsets ((i + 0.5) / spp,
-/// (j + 0.5) / spp); for odd spp the middle one passes exactly through the
-/// pixel centre and gives the depth; when `want_depth` and spp is even, one
-/// extra primary ray (counted as primary) is cast through the centre. Owner thread of `scratch` only.
+/// Colour of pixel (x, y), 0 <= x < width, 0 <= y < height of `camera`, and
+/// (when `want_first_hit`) the first hit of the ray through its centre.
+/// Casts spp x spp primary rays at offsets ((i + 0.5) / spp, (j + 0.5) / spp);
+/// for odd spp the middle one passes exactly through the pixel centre and
+/// gives the first hit; when `want_first_hit` and spp is even, one extra
+/// primary ray (counted as primary, not shaded) is cast through the centre.
+/// Usable by any caller that owns a subset of the pixels (e.g. a node
+/// thread with its own view). Owner thread of `scratch` only.
 template <class View>
 PixelResult render_pixel(const View& view, const ShadingContext& ctx, const Camera& camera, int x, int y, int spp,
-                         bool want_depth, ShadingScratch& scratch) {
+                         bool want_first_hit, ShadingScratch& scratch) {
   PixelResult out;
   Vec3 sum;
   const float n = float(spp);
@@ -83,38 +107,54 @@ PixelResult render_pixel(const View& view, const ShadingContext& ctx, const Came
     for (int i = 0; i < spp; ++i) {
       const Ray r = camera.ray_through(float(x) + (float(i) + 0.5f) / n, float(y) + (float(j) + 0.5f) / n);
       ++scratch.stats.rays.primary;
-      const bool is_centre = centre_sampled && i == centre && j == centre;
-      sum += trace_ray(view, ctx, r, 1, 1.0f, scratch, is_centre ? &out.depth : nullptr);
+      const bool is_centre = want_first_hit && centre_sampled && i == centre && j == centre;
+      sum += trace_ray(view, ctx, r, 1, 1.0f, scratch, is_centre ? &out.first : nullptr);
     }
   out.color = sum * (1.0f / float(spp * spp));
-  if (want_depth && !centre_sampled) {
+  if (want_first_hit && !centre_sampled) {
     const Ray r = camera.ray_through(float(x) + 0.5f, float(y) + 0.5f);
     ++scratch.stats.rays.primary;
     Hit hit;
-    out.depth = intersect_closest(view, r, hit, scratch.traversal) ? hit.t : kInfinity;
+    if (intersect_closest(view, r, hit, scratch.traversal)) {
+      const Primitive& prim = view.primitive(hit.primitive);
+      out.first = FirstHit{hit.t, surface_frame(*ctx.db, prim, r, hit).ns, std::int64_t(prim.shape)};
+    }
   }
   return out;
 }
 
-/// Renders pixels [x0, x1) x [y0, y1) into `result` (images already sized).
+/// Renders pixels [x0, x1) x [y0, y1) into `result`: the colour image and
+/// each AOV image that is non-empty (all already sized by the caller to the
+/// camera's resolution). Owner thread of `scratch` only; concurrent calls
+/// on disjoint rectangles are safe.
 template <class View>
 void render_rect(const View& view, const ShadingContext& ctx, const Camera& camera, const RenderParams& params,
                  int x0, int y0, int x1, int y1, RenderResult& result, ShadingScratch& scratch) {
+  const bool want_first = !result.depth.empty() || !result.normal.empty() || !result.primitive.empty();
   for (int y = y0; y < y1; ++y)
     for (int x = x0; x < x1; ++x) {
-      const PixelResult px = render_pixel(view, ctx, camera, x, y, params.spp, params.depth_aov, scratch);
+      const PixelResult px = render_pixel(view, ctx, camera, x, y, params.spp, want_first, scratch);
       float* c = result.color.at(x, y);
       c[0] = px.color.x;
       c[1] = px.color.y;
       c[2] = px.color.z;
-      if (params.depth_aov) *result.depth.at(x, y) = px.depth;
+      if (!want_first) continue;
+      if (!result.depth.empty()) *result.depth.at(x, y) = px.first.t;
+      if (!result.normal.empty()) {
+        float* nrm = result.normal.at(x, y);
+        nrm[0] = px.first.normal.x;
+        nrm[1] = px.first.normal.y;
+        nrm[2] = px.first.normal.z;
+      }
+      if (!result.primitive.empty()) *result.primitive.at(x, y) = float(px.first.shape);
     }
 }
 
 /// Renders the whole image in params.mode. Sequential: one thread, row by
 /// row. Shared: tbb::parallel_for over tile_size^2 tiles, one ShadingScratch
 /// per worker thread (tbb::enumerable_thread_specific), counters merged at
-/// the end. Throws std::invalid_argument for bad params or camera.
+/// the end. `view` is any database view (DirectView, EmbreeView, ...) over
+/// `db`. Throws std::invalid_argument for bad params or camera.
 template <class View>
 RenderResult render_image(const View& view, const Database& db, const RenderParams& params) {
   if (params.spp < 1) throw std::invalid_argument("spp must be >= 1");
@@ -129,9 +169,15 @@ RenderResult render_image(const View& view, const Database& db, const RenderPara
   RenderResult result;
   result.color = Image(w, h, 3);
   if (params.depth_aov) result.depth = Image(w, h, 1);
+  if (params.normal_aov) result.normal = Image(w, h, 3);
+  if (params.primitive_aov) result.primitive = Image(w, h, 1);
+  std::atomic<std::uint64_t>* progress = params.progress;
   if (params.mode == RenderMode::kSequential) {
     ShadingScratch scratch;
-    render_rect(v, ctx, camera, params, 0, 0, w, h, result, scratch);
+    for (int y = 0; y < h; ++y) {
+      render_rect(v, ctx, camera, params, 0, y, w, y + 1, result, scratch);
+      if (progress) progress->fetch_add(std::uint64_t(w), std::memory_order_relaxed);
+    }
     result.stats = scratch.stats;
     result.stats.traversal = scratch.traversal.stats;
     return result;
@@ -143,7 +189,9 @@ RenderResult render_image(const View& view, const Database& db, const RenderPara
     ShadingScratch& scratch = scratches.local();
     for (int t = range.begin(); t != range.end(); ++t) {
       const int x0 = (t % tx) * ts, y0 = (t / tx) * ts;
-      render_rect(v, ctx, camera, params, x0, y0, std::min(x0 + ts, w), std::min(y0 + ts, h), result, scratch);
+      const int x1 = std::min(x0 + ts, w), y1 = std::min(y0 + ts, h);
+      render_rect(v, ctx, camera, params, x0, y0, x1, y1, result, scratch);
+      if (progress) progress->fetch_add(std::uint64_t(x1 - x0) * std::uint64_t(y1 - y0), std::memory_order_relaxed);
     }
   });
   for (const ShadingScratch& s : scratches) {

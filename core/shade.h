@@ -56,12 +56,16 @@ struct RayCounts {
   std::uint64_t shadow = 0;
   std::uint64_t reflected = 0;
   std::uint64_t refracted = 0;  ///< includes total-internal-reflection rays spawned for T
+  /// Of `refracted`, the rays that were totally internally reflected (Snell
+  /// had no solution); a sub-count, not part of total().
+  std::uint64_t refracted_tir = 0;
   std::uint64_t total() const { return primary + shadow + reflected + refracted; }
   RayCounts& operator+=(const RayCounts& o) {
     primary += o.primary;
     shadow += o.shadow;
     reflected += o.reflected;
     refracted += o.refracted;
+    refracted_tir += o.refracted_tir;
     return *this;
   }
 };
@@ -126,6 +130,59 @@ inline ShadingContext make_shading_context(const Database& db, int max_depth = 5
 /// Offset of secondary-ray origins from a hit at `p`, in world units.
 inline float ray_offset(const Vec3& p) { return 1e-4f * (1.0f + max_component(abs(p))); }
 
+/// Refraction direction by Snell's law (Whitted 1980; vector form as in
+/// Heckbert's "Writing a Ray Tracer", 1989): unit incident direction `d`,
+/// unit normal `n` on the side `d` comes from (dot(d, n) <= 0), `eta` =
+/// n_from / n_to. Writes the (unit) transmitted direction and returns true,
+/// or returns false on total internal reflection (eta * sin(theta_i) > 1),
+/// leaving `out` untouched.
+inline bool refract(const Vec3& d, const Vec3& n, float eta, Vec3& out) {
+  const float cosi = -dot(d, n);
+  const float k = 1.0f - eta * eta * (1.0f - cosi * cosi);
+  if (k < 0.0f) return false;
+  out = d * eta + n * (eta * cosi - std::sqrt(k));
+  return true;
+}
+
+/// The local frame of a hit, as shading sees it.
+struct SurfaceFrame {
+  Vec3 p;            ///< hit point, world units
+  Vec3 d;            ///< unit ray direction
+  Vec3 nf;           ///< unit geometric normal, face-forwarded towards the ray's origin side
+  Vec3 ns;           ///< unit shading normal (interpolated for `pp` triangles), flipped like nf
+  bool front = true; ///< the ray arrives at the front side (dot(unflipped normal, d) < 0)
+};
+
+/// Frame of the closest hit `hit` of `ray` (hit.found()). `prim` is the hit
+/// primitive as the view returned it; `pp` vertex normals come from `db`.
+inline SurfaceFrame surface_frame(const Database& db, const Primitive& prim, const Ray& ray, const Hit& hit) {
+  SurfaceFrame f;
+  f.d = normalize(ray.direction);
+  f.p = ray.at(hit.t);
+  // Geometric normal: raw (for entering/exiting) and face-forwarded.
+  Vec3 ng = geometric_normal(prim, f.p);
+  const float ng_len = length(ng);
+  ng = ng_len > 0.0f ? ng * (1.0f / ng_len) : -f.d;
+  f.front = dot(ng, f.d) < 0.0f;
+  f.nf = f.front ? ng : -ng;
+  // Shading normal, flipped together with the geometric one.
+  f.ns = f.nf;
+  if (prim.kind == PrimitiveKind::kTriangle && prim.normals != kNoNormals) {
+    const TriangleNormals& vn = db.vertex_normals[prim.normals];
+    const Vec3 n = vn.n[0] * (1.0f - hit.u - hit.v) + vn.n[1] * hit.u + vn.n[2] * hit.v;
+    const float len = length(n);
+    if (len > 0.0f && std::isfinite(len)) f.ns = f.front ? n * (1.0f / len) : n * (-1.0f / len);
+  }
+  return f;
+}
+
+/// What the first hit of an eye ray leaves for the AOVs (render.h).
+struct FirstHit {
+  float t = kInfinity;       ///< distance along the (unit) ray, world units; +inf on a miss
+  Vec3 normal;               ///< unit shading normal, face-forwarded towards the eye; (0,0,0) on a miss
+  std::int64_t shape = -1;   ///< Primitive::shape (NFF shape index in file order) of the hit; -1 on a miss
+};
+
 /// Per-thread mutable state of shading: traversal scratch and counters.
 struct ShadingScratch {
   TraversalScratch traversal;
@@ -134,39 +191,30 @@ struct ShadingScratch {
 
 /// Colour seen along `ray` (level `depth`, 1 = eye ray; `weight` = its
 /// contribution factor to the pixel). Counts the rays it casts (not `ray`
-/// itself: the caller counts that by kind). `hit_t_out`, when non-null,
-/// receives the distance of the first hit (+inf on a miss). Owner thread of
-/// `scratch` only.
+/// itself: the caller counts that by kind). `first_hit`, when non-null,
+/// receives the distance, shading normal and shape index of the first hit
+/// (FirstHit's defaults on a miss). The database view may be any view of
+/// traverse.h, or one with its own intersect_closest / intersect_any
+/// overloads (embree_view.h). Owner thread of `scratch` only.
 template <class View>
 Vec3 trace_ray(const View& view, const ShadingContext& ctx, const Ray& ray, int depth, float weight,
-               ShadingScratch& scratch, float* hit_t_out = nullptr) {
+               ShadingScratch& scratch, FirstHit* first_hit = nullptr) {
   const Database& db = *ctx.db;
   RenderStats& st = scratch.stats;
   Hit hit;
   if (!intersect_closest(view, ray, hit, scratch.traversal)) {
-    if (hit_t_out) *hit_t_out = kInfinity;
+    if (first_hit) *first_hit = FirstHit{};
     return db.background;
   }
-  if (hit_t_out) *hit_t_out = hit.t;
   const Primitive& prim = view.primitive(hit.primitive);
   const Material& m = db.materials[prim.material];
-  const Vec3 d = normalize(ray.direction);
-  const Vec3 p = ray.at(hit.t);
-
-  // Geometric normal: raw (for entering/exiting) and face-forwarded.
-  Vec3 ng = geometric_normal(prim, p);
-  const float ng_len = length(ng);
-  ng = ng_len > 0.0f ? ng * (1.0f / ng_len) : -d;
-  const bool front = dot(ng, d) < 0.0f;  // ray arrives at the front side
-  const Vec3 nf = front ? ng : -ng;
-  // Shading normal, flipped together with the geometric one.
-  Vec3 ns = nf;
-  if (prim.kind == PrimitiveKind::kTriangle && prim.normals != kNoNormals) {
-    const TriangleNormals& vn = db.vertex_normals[prim.normals];
-    const Vec3 n = vn.n[0] * (1.0f - hit.u - hit.v) + vn.n[1] * hit.u + vn.n[2] * hit.v;
-    const float len = length(n);
-    if (len > 0.0f && std::isfinite(len)) ns = front ? n * (1.0f / len) : n * (-1.0f / len);
-  }
+  const SurfaceFrame f = surface_frame(db, prim, ray, hit);
+  const Vec3& d = f.d;
+  const Vec3& p = f.p;
+  const Vec3& nf = f.nf;
+  const Vec3& ns = f.ns;
+  const bool front = f.front;
+  if (first_hit) *first_hit = FirstHit{hit.t, ns, std::int64_t(prim.shape)};
   const float eps = ray_offset(p);
   const Vec3 above = p + nf * eps;  // on the side the ray came from
   const Vec3 below = p - nf * eps;
@@ -237,14 +285,13 @@ Vec3 trace_ray(const View& view, const ShadingContext& ctx, const Ray& ray, int 
     if (may_spawn(w)) {
       const float ior = m.ior > 0.0f ? m.ior : 1.0f;
       const float eta = front ? 1.0f / ior : ior;  // n_from / n_to
-      const float cosi = -dot(d, ns);
-      const float k = 1.0f - eta * eta * (1.0f - cosi * cosi);
       Vec3 dir;
-      if (k < 0.0f) dir = reflect_dir();  // total internal reflection
-      else dir = d * eta + ns * (eta * cosi - std::sqrt(k));
+      const bool tir = !refract(d, ns, eta, dir);
+      if (tir) dir = reflect_dir();  // total internal reflection
       const Ray r{dot(dir, nf) > 0.0f ? above : below, dir, 0.0f, kInfinity};
       if (is_valid_ray(r)) {
         ++st.rays.refracted;
+        if (tir) ++st.rays.refracted_tir;
         color += trace_ray(view, ctx, r, depth + 1, w, scratch) * m.transmittance;
       }
     }

@@ -166,11 +166,13 @@ TEST_CASE("render: a ray that misses everything gets the background colour") {
   CHECK(r.stats.rays.shadow == 0u);
   // And trace_ray directly, away from the quad.
   ShadingScratch scratch;
-  float t = 0;
+  FirstHit first{1.0f, {1, 0, 0}, 7};
   const Vec3 c = trace_ray(DirectView(db, grid), make_shading_context(db), Ray{{0, 0, 5}, {0, 0, 1}}, 1, 1.0f,
-                           scratch, &t);
+                           scratch, &first);
   CHECK(c == Vec3{0.2f, 0.3f, 0.4f});
-  CHECK(std::isinf(t));
+  CHECK(std::isinf(first.t));
+  CHECK(first.shape == -1);
+  CHECK(first.normal == Vec3{0, 0, 0});
 }
 
 TEST_CASE("render: a lit diffuse quad seen head-on has ambient + Lambert colour with SPD intensities") {
