@@ -1,0 +1,129 @@
+// A node's private memory: a byte budget that everything the node holds is
+// allocated from (DESIGN.md, "The node emulator"; the paper's iPSC/2 node has
+// 4 MiB). Place in the data flow: Machine creates one Arena per node (and an
+// unbounded one for the host); the node's mailbox, its share of the database,
+// its page cache and page table are all carved from it.
+//
+// The arena is an accounting memory resource: every request is charged at
+// its exact byte count against the budget, and a request that would exceed
+// it throws ArenaExhausted naming the node, the request, what is in use and
+// the budget — it never falls back silently to the global heap. Memory given
+// back is credited again. The bytes themselves come from the upstream
+// operator new, so the budget is exact to the byte while the arena stays
+// free of fragmentation policy (what a real node's malloc would add is not
+// modelled).
+//
+// Thread safety: owner thread only (the host may fill a node's arena before
+// the node's thread starts).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory_resource>
+#include <new>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+
+namespace raynode::nodes {
+
+/// Node ids: 0 .. nodes-1 are the nodes; kHost is the host.
+using NodeId = std::uint32_t;
+inline constexpr NodeId kHost = 0xffffffffu;
+
+/// "node 3" or "host".
+std::string node_name(NodeId id);
+
+/// Thrown when an allocation would exceed a node's memory budget.
+class ArenaExhausted : public std::runtime_error {
+ public:
+  ArenaExhausted(NodeId node, std::size_t requested, std::size_t in_use, std::size_t budget, const std::string& what);
+  NodeId node;
+  std::size_t requested, in_use, budget;
+};
+
+/// Formats a byte count for messages: "4 MiB", "1.5 KiB", "733 B".
+std::string format_bytes(std::size_t bytes);
+
+/// A node's memory budget. See the file comment.
+class Arena : public std::pmr::memory_resource {
+ public:
+  /// Budget in bytes; `node` names the owner in errors.
+  Arena(NodeId node, std::size_t budget_bytes);
+  Arena(const Arena&) = delete;
+  Arena& operator=(const Arena&) = delete;
+  ~Arena() override = default;
+
+  NodeId node() const { return node_; }
+  std::size_t budget() const { return budget_; }
+  std::size_t used() const { return used_; }
+  std::size_t peak() const { return peak_; }
+  std::size_t available() const { return budget_ - used_; }
+  std::uint64_t allocations() const { return allocations_; }
+
+  /// Raw bytes charged to the budget; `what` names the purpose in errors.
+  /// Throws ArenaExhausted. The memory is uninitialised.
+  void* allocate_bytes(std::size_t bytes, std::size_t align, const char* what);
+  void deallocate_bytes(void* p, std::size_t bytes, std::size_t align) noexcept;
+
+  /// n value-initialised T's (T trivially destructible); throws ArenaExhausted.
+  template <class T>
+  std::span<T> allocate_array(std::size_t n, const char* what) {
+    static_assert(std::is_trivially_destructible_v<T>, "arena arrays hold plain records");
+    if (n > budget_ / sizeof(T)) throw_exhausted(n > SIZE_MAX / sizeof(T) ? SIZE_MAX : n * sizeof(T), what);
+    T* p = static_cast<T*>(allocate_bytes(n * sizeof(T), alignof(T), what));
+    for (std::size_t i = 0; i < n; ++i) new (p + i) T();
+    return {p, n};
+  }
+  template <class T>
+  void deallocate_array(std::span<T> a) noexcept {
+    deallocate_bytes(a.data(), a.size() * sizeof(T), alignof(T));
+  }
+
+ private:
+  void* do_allocate(std::size_t bytes, std::size_t align) override;
+  void do_deallocate(void* p, std::size_t bytes, std::size_t align) override;
+  bool do_is_equal(const std::pmr::memory_resource& other) const noexcept override { return this == &other; }
+  [[noreturn]] void throw_exhausted(std::size_t bytes, const char* what) const;
+
+  NodeId node_;
+  std::size_t budget_;
+  std::size_t used_ = 0;
+  std::size_t peak_ = 0;
+  std::uint64_t allocations_ = 0;
+};
+
+/// An array owned by an arena, freed back to it on destruction (move-only).
+template <class T>
+class ArenaArray {
+ public:
+  ArenaArray() = default;
+  ArenaArray(Arena& arena, std::size_t n, const char* what) : arena_(&arena), data_(arena.allocate_array<T>(n, what)) {}
+  ArenaArray(ArenaArray&& o) noexcept : arena_(o.arena_), data_(o.data_) { o.data_ = {}; }
+  ArenaArray& operator=(ArenaArray&& o) noexcept {
+    if (this != &o) {
+      release();
+      arena_ = o.arena_;
+      data_ = o.data_;
+      o.data_ = {};
+    }
+    return *this;
+  }
+  ~ArenaArray() { release(); }
+
+  std::span<T> span() const { return data_; }
+  T* data() const { return data_.data(); }
+  std::size_t size() const { return data_.size(); }
+  T& operator[](std::size_t i) const { return data_[i]; }
+
+ private:
+  void release() {
+    if (arena_ && data_.data()) arena_->deallocate_array(data_);
+    data_ = {};
+  }
+  Arena* arena_ = nullptr;
+  std::span<T> data_;
+};
+
+}  // namespace raynode::nodes

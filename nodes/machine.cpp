@@ -1,0 +1,273 @@
+#include "nodes/machine.h"
+
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <condition_variable>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "nodes/cpu_time.h"
+
+namespace raynode::nodes {
+
+const char* message_type_name(MessageType type) {
+  switch (type) {
+    case MessageType::kWorkRequest: return "work_request";
+    case MessageType::kWorkGrant: return "work_grant";
+    case MessageType::kPixels: return "pixels";
+    case MessageType::kNodeDone: return "node_done";
+    case MessageType::kShutdown: return "shutdown";
+    case MessageType::kPageRequest: return "page_request";
+    case MessageType::kPageReply: return "page_reply";
+    case MessageType::kRay: return "ray";
+    case MessageType::kContribution: return "contribution";
+    case MessageType::kToken: return "token";
+    case MessageType::kControl: return "control";
+    case MessageType::kTest: return "test";
+    case MessageType::kCount: break;
+  }
+  return "unknown";
+}
+
+MachineState::MachineState(const MachineParams& p)
+    : params(p), topology(p.topology, p.nodes), finished(new std::atomic<bool>[p.nodes]) {
+  for (std::uint32_t i = 0; i < p.nodes; ++i) finished[i].store(false, std::memory_order_relaxed);
+}
+
+MachineState::~MachineState() = default;
+
+void MachineState::fail(NodeId node, std::exception_ptr error) {
+  {
+    std::lock_guard<std::mutex> lock(error_mutex_);
+    if (!error_) {
+      error_ = error;
+      error_node_ = node;
+    }
+  }
+  stop_all();
+}
+
+void MachineState::stop_all() {
+  stop.store(true, std::memory_order_seq_cst);
+  for (auto& n : nodes)
+    if (n) n->mailbox().wake();
+  if (host) host->mailbox().wake();
+}
+
+std::exception_ptr MachineState::error() const {
+  std::lock_guard<std::mutex> lock(error_mutex_);
+  return error_;
+}
+
+NodeId MachineState::error_node() const {
+  std::lock_guard<std::mutex> lock(error_mutex_);
+  return error_node_;
+}
+
+Machine::Machine(const MachineParams& params) : params_(params) {
+  if (params_.nodes < 1 || params_.nodes > kMaxNodes)
+    throw std::invalid_argument(fmt::format("--nodes must be 1..{}, got {}", kMaxNodes, params_.nodes));
+  if (params_.node_memory == 0) throw std::invalid_argument("--node-memory must be > 0");
+  if (params_.max_payload == 0) throw std::invalid_argument("message payload limit must be > 0");
+  if (params_.mailbox_capacity == 0) params_.mailbox_capacity = 2 * params_.nodes + 32;
+}
+
+namespace {
+
+/// The message of an exception, prefixed with the node's name unless it
+/// already starts with it.
+NodeError to_node_error(NodeId node, std::exception_ptr e) {
+  std::string what;
+  try {
+    std::rethrow_exception(e);
+  } catch (const NodeError& ne) {
+    return ne;
+  } catch (const std::exception& ex) {
+    what = ex.what();
+  } catch (...) {
+    what = "unknown exception";
+  }
+  const std::string name = node_name(node);
+  if (what.rfind(name + ":", 0) != 0) what = name + ": " + what;
+  return NodeError(node, what);
+}
+
+NodeReport make_report(NodeContext& ctx, double clock) {
+  NodeReport r;
+  r.id = ctx.id();
+  r.counters = ctx.counters();
+  r.clock_s = clock;
+  r.memory_peak = ctx.arena().peak();
+  r.memory_budget = ctx.arena().budget();
+  return r;
+}
+
+}  // namespace
+
+RunReport Machine::run(const Main& node_main, const Main& host_main, const Main& setup) {
+  const auto wall0 = std::chrono::steady_clock::now();
+  MachineState state(params_);
+  const std::uint32_t n = params_.nodes;
+  // Build the participants; their mailboxes come out of their arenas.
+  try {
+    state.nodes.reserve(n);
+    for (NodeId i = 0; i < n; ++i)
+      state.nodes.push_back(
+          std::make_unique<NodeContext>(state, i, params_.node_memory, params_.mailbox_capacity, params_.max_payload));
+    state.host = std::make_unique<NodeContext>(state, kHost, SIZE_MAX, params_.host_mailbox_capacity,
+                                               params_.max_payload);
+    if (setup)
+      for (NodeId i = 0; i < n; ++i) {
+        try {
+          setup(*state.nodes[i]);
+        } catch (...) {
+          throw to_node_error(i, std::current_exception());
+        }
+      }
+  } catch (const NodeError&) {
+    throw;
+  } catch (const ArenaExhausted& e) {
+    throw NodeError(e.node, e.what());
+  }
+
+  std::mutex done_mutex;
+  std::condition_variable done_cv;
+  std::uint32_t running = n + 1;
+  std::vector<double> final_clock(n + 1, 0.0);
+  auto participant = [&](NodeId id, const Main& main, std::size_t slot) {
+    NodeContext& ctx = state.context(id);
+    ctx.reset_cpu_mark();
+    try {
+      main(ctx);
+    } catch (const RunAborted&) {
+      // stopped because someone else failed
+    } catch (...) {
+      state.fail(id, std::current_exception());
+    }
+    final_clock[slot] = ctx.now();
+    if (id != kHost) state.finished[id].store(true, std::memory_order_release);
+    {
+      std::lock_guard<std::mutex> lock(done_mutex);
+      --running;
+    }
+    done_cv.notify_all();
+  };
+
+  std::vector<std::thread> threads;
+  threads.reserve(n + 1);
+  try {
+    for (NodeId i = 0; i < n; ++i) threads.emplace_back(participant, i, std::cref(node_main), std::size_t(i));
+    threads.emplace_back(participant, kHost, std::cref(host_main), std::size_t(n));
+  } catch (...) {
+    state.fail(kHost, std::current_exception());  // e.g. no more threads: stop those started
+  }
+  {
+    std::unique_lock<std::mutex> lock(done_mutex);
+    const std::uint32_t started = std::uint32_t(threads.size());
+    auto all_done = [&] { return running <= (n + 1) - started; };
+    if (params_.timeout_s > 0) {
+      if (!done_cv.wait_for(lock, std::chrono::duration<double>(params_.timeout_s), all_done)) {
+        lock.unlock();
+        state.fail(kHost, std::make_exception_ptr(std::runtime_error(fmt::format(
+                              "the run did not finish within {} s (watchdog); stopped", params_.timeout_s))));
+      }
+    } else {
+      done_cv.wait(lock, all_done);
+    }
+  }
+  for (std::thread& t : threads) t.join();
+  if (std::exception_ptr e = state.error()) throw to_node_error(state.error_node(), e);
+
+  RunReport report;
+  report.network = params_.network.name;
+  report.topology = topology_name(params_.topology);
+  for (NodeId i = 0; i < n; ++i) {
+    report.nodes.push_back(make_report(*state.nodes[i], final_clock[i]));
+    report.parallel_time_s = std::max(report.parallel_time_s, final_clock[i]);
+  }
+  report.host = make_report(*state.host, final_clock[n]);
+  report.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  return report;
+}
+
+NodeCounters RunReport::total() const {
+  NodeCounters t;
+  for (const NodeReport& r : nodes) t += r.counters;
+  return t;
+}
+
+namespace {
+
+nlohmann::json counters_json(const NodeCounters& c) {
+  nlohmann::json j;
+  nlohmann::json sent = nlohmann::json::object(), received = nlohmann::json::object();
+  for (std::size_t i = 0; i < kMessageTypeCount; ++i) {
+    const char* name = message_type_name(MessageType(i));
+    if (c.sent[i].messages) sent[name] = {{"messages", c.sent[i].messages}, {"bytes", c.sent[i].bytes}};
+    if (c.received[i].messages)
+      received[name] = {{"messages", c.received[i].messages}, {"bytes", c.received[i].bytes}};
+  }
+  const MessageCounts ts = c.total_sent();
+  j["messages_sent"] = ts.messages;
+  j["bytes_sent"] = ts.bytes;
+  j["sent"] = sent;
+  j["received"] = received;
+  j["time"] = {{"busy_s", c.busy_s},
+               {"idle_s", c.idle_s},
+               {"communication_s", c.communication_s},
+               {"emulator_overhead_cpu_s", c.overhead_cpu_s}};
+  j["full_mailbox_retries"] = c.full_mailbox_retries;
+  j["backlog_peak"] = c.backlog_peak;
+  return j;
+}
+
+}  // namespace
+
+nlohmann::json RunReport::to_json(bool per_node) const {
+  nlohmann::json j;
+  j["count"] = nodes.size();
+  j["network"] = network;
+  j["topology"] = topology;
+  j["parallel_time_s"] = parallel_time_s;
+  j["wall_s"] = wall_s;
+  std::size_t peak = 0;
+  for (const NodeReport& r : nodes) peak = std::max(peak, r.memory_peak);
+  j["memory_peak_bytes"] = peak;
+  j["memory_budget_bytes"] = nodes.empty() ? 0 : nodes.front().memory_budget;
+  j["total"] = counters_json(total());
+  j["host"] = counters_json(host.counters);
+  if (per_node) {
+    nlohmann::json arr = nlohmann::json::array();
+    for (const NodeReport& r : nodes) {
+      nlohmann::json e = counters_json(r.counters);
+      e["id"] = r.id;
+      e["clock_s"] = r.clock_s;
+      e["memory_peak_bytes"] = r.memory_peak;
+      arr.push_back(std::move(e));
+    }
+    j["per_node"] = std::move(arr);
+  }
+  return j;
+}
+
+std::size_t parse_bytes(const std::string& text) {
+  std::size_t i = 0;
+  while (i < text.size() && std::isdigit(static_cast<unsigned char>(text[i]))) ++i;
+  if (i == 0 || i > 15) throw std::invalid_argument("'" + text + "' is not a byte size (e.g. 4MiB, 512KiB, 65536)");
+  const std::size_t value = std::stoull(text.substr(0, i));
+  std::string unit = text.substr(i);
+  for (char& ch : unit) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+  std::size_t mult = 0;
+  if (unit.empty() || unit == "b") mult = 1;
+  else if (unit == "k" || unit == "kib" || unit == "kb") mult = std::size_t(1) << 10;
+  else if (unit == "m" || unit == "mib" || unit == "mb") mult = std::size_t(1) << 20;
+  else if (unit == "g" || unit == "gib" || unit == "gb") mult = std::size_t(1) << 30;
+  if (mult == 0) throw std::invalid_argument("'" + text + "' has an unknown unit (B, KiB, MiB, GiB)");
+  if (value == 0) throw std::invalid_argument("byte size '" + text + "' must be > 0");
+  return value * mult;
+}
+
+}  // namespace raynode::nodes

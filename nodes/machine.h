@@ -1,0 +1,135 @@
+// The emulated distributed-memory machine: N node threads plus a host, each
+// with its own arena and mailbox, a topology and a network cost model
+// (DESIGN.md, "The node emulator").
+//
+// Place in the data flow: a mode (replicated, svm, dataflow) builds
+// MachineParams, then Machine::run(node_main, host_main, setup):
+//   1. creates every participant's NodeContext (arena, mailbox);
+//   2. calls setup(ctx) for each node on the caller's thread (the host
+//      loading node memories before the nodes start; not in virtual time);
+//   3. runs node_main(ctx) on one thread per node and host_main(host ctx) on
+//      one more thread, and waits for all of them;
+//   4. returns a RunReport: each node's counters and final clock; parallel
+//      time T_p = the largest node clock.
+// An exception in any participant stops the run (the others' blocking calls
+// throw RunAborted) and is rethrown by run() as NodeError naming the node.
+// With timeout_s > 0 a watchdog stops a run that takes longer (wall clock)
+// and throws NodeError for the host: no hang survives it.
+//
+// Speedup and efficiency (the paper's definitions): speedup = T_1 / T_p
+// with T_1 the one-node run's parallel time, efficiency = speedup / p.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <exception>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <nlohmann/json_fwd.hpp>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "nodes/node.h"
+
+namespace raynode::nodes {
+
+inline constexpr std::size_t kMiB = std::size_t(1) << 20;
+
+/// How the machine is built. Every field has a default.
+struct MachineParams {
+  std::uint32_t nodes = 1;                    ///< 1 .. kMaxNodes
+  std::size_t node_memory = 4 * kMiB;         ///< bytes per node arena (iPSC/2: 4 MiB)
+  TopologyKind topology = TopologyKind::kHypercube;
+  NetworkModel network;                       ///< default: "none"
+  std::uint32_t mailbox_capacity = 0;         ///< slots per node mailbox; 0 = 2 x nodes + 32
+  std::uint32_t host_mailbox_capacity = 4096; ///< slots of the host's mailbox
+  std::uint32_t max_payload = 256;            ///< bytes per message payload, at most
+  double timeout_s = 0;                       ///< watchdog, wall seconds; 0 = none
+};
+
+inline constexpr std::uint32_t kMaxNodes = 4096;
+
+/// An exception thrown in a node (or the host), carried out of the run.
+class NodeError : public std::runtime_error {
+ public:
+  NodeError(NodeId node, const std::string& message) : std::runtime_error(message), node(node) {}
+  NodeId node;
+};
+
+/// One participant's results.
+struct NodeReport {
+  NodeId id = 0;
+  NodeCounters counters;
+  double clock_s = 0;            ///< final virtual time
+  std::size_t memory_peak = 0;   ///< arena high-water mark, bytes
+  std::size_t memory_budget = 0; ///< arena budget, bytes
+};
+
+/// What a run measured.
+struct RunReport {
+  std::vector<NodeReport> nodes;
+  NodeReport host;
+  double parallel_time_s = 0;  ///< T_p: the largest node clock, virtual seconds
+  double wall_s = 0;           ///< real seconds the run took
+  std::string network;         ///< preset name
+  std::string topology;
+
+  /// Counters summed over the nodes (not the host).
+  NodeCounters total() const;
+  /// {"count", "parallel_time_s", "wall_s", "network", "topology", "total": {...},
+  ///  "per_node": [...] (when per_node)}; times in seconds, bytes in bytes.
+  nlohmann::json to_json(bool per_node = true) const;
+};
+
+/// Shared state of a run: what every participant may touch. Internal to
+/// nodes/, public for NodeContext.
+class MachineState {
+ public:
+  explicit MachineState(const MachineParams& params);
+  ~MachineState();
+
+  const MachineParams params;
+  const Topology topology;
+  std::vector<std::unique_ptr<NodeContext>> nodes;
+  std::unique_ptr<NodeContext> host;
+  std::atomic<bool> stop{false};
+  std::unique_ptr<std::atomic<bool>[]> finished;  ///< per node: its main returned
+
+  NodeContext& context(NodeId id) { return id == kHost ? *host : *nodes[id]; }
+  /// Records the first failure and stops everyone.
+  void fail(NodeId node, std::exception_ptr error);
+  /// Sets `stop` and wakes every mailbox.
+  void stop_all();
+  std::exception_ptr error() const;
+  NodeId error_node() const;
+
+ private:
+  mutable std::mutex error_mutex_;
+  std::exception_ptr error_;
+  NodeId error_node_ = 0;
+};
+
+class Machine {
+ public:
+  using Main = std::function<void(NodeContext&)>;
+
+  /// Validates params: throws std::invalid_argument for 0 or too many nodes,
+  /// a zero memory budget or payload limit.
+  explicit Machine(const MachineParams& params);
+
+  const MachineParams& params() const { return params_; }
+
+  /// Runs one frame as described in the file comment. Throws NodeError.
+  RunReport run(const Main& node_main, const Main& host_main, const Main& setup = {});
+
+ private:
+  MachineParams params_;
+};
+
+/// Parses a byte size: "4MiB", "512KiB", "1GiB", "4M", "1048576" (bytes).
+/// Throws std::invalid_argument with the text on a malformed or zero size.
+std::size_t parse_bytes(const std::string& text);
+
+}  // namespace raynode::nodes

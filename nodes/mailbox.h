@@ -1,0 +1,97 @@
+// A node's mailbox: a bounded, lock-free, multi-producer single-consumer
+// queue of fixed-size slots, each holding one message header and up to
+// `max_payload` payload bytes (DESIGN.md, "Mailbox").
+//
+// Place in the data flow: any thread's NodeContext::send -> try_push into the
+// receiver's mailbox; the owner's NodeContext::receive -> try_pop / wait.
+//
+// Algorithm: Dmitry Vyukov's bounded MPMC queue ("Bounded MPMC queue",
+// 1024cores.net, 2010), used with a single consumer, so the dequeue index is
+// a plain variable of the owner thread. Every slot carries a sequence number:
+// seq == pos means "free for the producer that claims position pos",
+// seq == pos + 1 means "filled, ready for the consumer at pos"; the consumer
+// frees it for the next lap with seq = pos + capacity. Producers claim
+// positions with a CAS on the enqueue index. `try_push` never waits: a full
+// mailbox returns false (the dataflow mode's deadlock case needs the sender
+// to see it). The slot array lives in the owner's Arena.
+//
+// Waiting: the consumer blocks in std::atomic::wait (a futex on Linux) on a
+// wake-up counter rather than spinning, so hundreds of idle node threads cost
+// nothing on a 2-core machine. A producer bumps the counter and notifies only
+// when the consumer has announced that it is going to sleep; a pair of
+// seq_cst fences (Dekker's pattern) guarantees that either the producer sees
+// the announcement or the consumer sees the new message, so no wake-up is lost.
+#pragma once
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <new>
+#include <span>
+
+#include "nodes/arena.h"
+#include "nodes/message.h"
+
+namespace raynode::nodes {
+
+class Mailbox {
+ public:
+  /// `capacity` slots (rounded up to a power of two, >= 2) of `max_payload`
+  /// bytes each, allocated from `arena` (throws ArenaExhausted).
+  Mailbox(Arena& arena, std::uint32_t capacity, std::uint32_t max_payload);
+  Mailbox(const Mailbox&) = delete;
+  Mailbox& operator=(const Mailbox&) = delete;
+  ~Mailbox();
+
+  std::uint32_t capacity() const { return capacity_; }
+  std::uint32_t max_payload() const { return max_payload_; }
+  /// Bytes of arena memory the slots take.
+  std::size_t bytes() const { return std::size_t(capacity_) * stride_; }
+  /// Bytes per slot for a given payload limit (for sizing before creating).
+  static std::size_t slot_bytes(std::uint32_t max_payload);
+
+  /// Copies the header and the concatenation of `parts` into a free slot and
+  /// publishes it. Any thread; lock-free. Returns false, changing nothing,
+  /// if the mailbox is full. Throws std::length_error if the parts exceed
+  /// max_payload. header.payload_bytes is set from the parts.
+  bool try_push(MessageHeader header, std::span<const std::span<const std::byte>> parts);
+
+  /// Owner thread only: pops the oldest published message, copying its
+  /// payload into `payload_out` (at least max_payload bytes). Returns false
+  /// if empty. Wait-free.
+  bool try_pop(MessageHeader& header, std::byte* payload_out);
+
+  /// Owner thread only: blocks until a message may be available, or `stop`
+  /// is true (checked after announcing the sleep). Spurious returns are
+  /// allowed; callers loop.
+  void wait(const std::atomic<bool>& stop);
+  /// Any thread: wakes the owner if it waits. To stop a run, set the stop
+  /// flag (release or stronger) first, then call wake().
+  void wake();
+
+  /// Approximate number of queued messages (any thread; for statistics).
+  std::uint32_t approximate_size() const;
+
+ private:
+  struct alignas(64) SlotHead {
+    std::atomic<std::uint64_t> seq;
+    MessageHeader header;
+  };
+  SlotHead* slot(std::uint64_t pos) const {
+    return std::launder(reinterpret_cast<SlotHead*>(slots_ + (pos & mask_) * stride_));
+  }
+  bool nonempty_for_consumer() const;
+
+  Arena* arena_;
+  std::uint32_t capacity_;
+  std::uint32_t max_payload_;
+  std::uint64_t mask_;
+  std::size_t stride_;
+  std::byte* slots_ = nullptr;
+  alignas(64) std::atomic<std::uint64_t> enqueue_pos_{0};  // shared by producers
+  alignas(64) std::uint64_t dequeue_pos_ = 0;              // owner only
+  alignas(64) std::atomic<std::uint32_t> wake_count_{0};   // futex word
+  std::atomic<bool> sleeping_{false};
+};
+
+}  // namespace raynode::nodes

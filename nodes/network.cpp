@@ -1,0 +1,54 @@
+#include "nodes/network.h"
+
+#include <algorithm>
+#include <stdexcept>
+
+#include "core/database.h"
+#include "core/grid.h"
+#include "core/render.h"
+#include "core/spd.h"
+#include "nodes/cpu_time.h"
+
+namespace raynode::nodes {
+
+NetworkModel make_network(const std::string& name, double seconds_per_ray) {
+  NetworkModel m;
+  m.name = name;
+  if (name == "none") return m;
+  if (name == "ipsc2") {
+    if (seconds_per_ray <= 0) seconds_per_ray = calibrate_seconds_per_ray();
+    m.scale = seconds_per_ray / kIpsc2SecondsPerRay;
+    const double peak = 2.75e6, rate_1k = 0.9e6;
+    m.per_byte_s = m.scale / peak;
+    m.latency_s = m.scale * (1024.0 / rate_1k - 1024.0 / peak);
+    m.per_hop_s = m.scale * 10e-6;
+    m.service_s = m.scale * 100e-6;
+    return m;
+  }
+  if (name == "cluster") {
+    m.latency_s = 1.5e-6;
+    m.per_byte_s = 1.0 / 12.5e9;
+    m.per_hop_s = 0.1e-6;
+    m.service_s = 0.5e-6;
+    return m;
+  }
+  throw std::invalid_argument("unknown network '" + name + "' (none, ipsc2, cluster)");
+}
+
+double calibrate_seconds_per_ray() {
+  const core::Scene scene = core::make_spd_scene(core::SpdParams{"teapot", 8, 0});
+  const core::Database db = core::make_database(scene);
+  const core::Grid grid = core::build_grid(db);
+  core::RenderParams params;
+  params.width = params.height = 64;
+  double best = 1e30;
+  for (int rep = 0; rep < 3; ++rep) {
+    const double t0 = thread_cpu_seconds();
+    const core::RenderResult r = core::render(db, grid, params);
+    const double dt = thread_cpu_seconds() - t0;
+    best = std::min(best, dt / double(std::max<std::uint64_t>(1, r.stats.rays.total())));
+  }
+  return best;
+}
+
+}  // namespace raynode::nodes

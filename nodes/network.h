@@ -1,0 +1,63 @@
+// The network cost model of the emulated machine (DESIGN.md, "Virtual
+// time"): a message of b bytes crossing h links arrives
+//     arrival = departure + latency + b x per_byte + h x per_hop
+// in virtual seconds. The receiver's clock becomes max(own, arrival).
+//
+// Presets (`--network`):
+//  * none    — free, instantaneous messages: isolates computation.
+//  * ipsc2   — the paper's Intel iPSC/2, scaled to this machine. The paper
+//              (section "Results with control-oriented parallelization")
+//              gives 0.9 MB/s for 1 KiB messages and a 2.75 MB/s peak. Read
+//              as start-up + bytes / peak, that is
+//                per_byte = 1 / 2.75e6 s           = 0.364 us/B
+//                latency  = 1024/0.9e6 - 1024/2.75e6 = 0.765 ms,
+//              and we add 10 us per hop (the paper gives none; Direct-Connect
+//              circuit switching makes it ~1% of the start-up). To keep the
+//              paper's ratio of page transfer to ray computation, all three
+//              are multiplied by
+//                scale = (this machine's seconds per ray) / (iPSC/2 seconds per ray),
+//              where the iPSC/2 traced Teapot's 1,397,473 rays in 3:12:02 on
+//              one node (Tables 2 and 3): 8.245 ms per ray. This machine's
+//              seconds per ray are measured by calibrate_seconds_per_ray()
+//              (one thread tracing teapot:8 at 64x64, best of 3) or given with
+//              --network-scale. A 1 KiB page then costs 0.138 ray-times, as
+//              on the iPSC/2.
+//  * cluster — a modern cluster, unscaled: 1.5 us latency, 12.5 GB/s (100
+//              Gb/s InfiniBand), 0.1 us per hop.
+// Every preset also names the cost of serving a message at interrupt level
+// (`service`, e.g. a page request at its home node): ipsc2 charges 0.1 ms
+// (about a 1 KiB copy at the 80386's ~10 MB/s memory bandwidth), scaled.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace raynode::nodes {
+
+/// iPSC/2 seconds per ray on one node (Teapot, Tables 2 and 3): 11522 s / 1,397,473 rays.
+inline constexpr double kIpsc2SecondsPerRay = 11522.0 / 1397473.0;
+
+struct NetworkModel {
+  std::string name = "none";
+  double latency_s = 0;   ///< start-up cost per message, virtual seconds
+  double per_byte_s = 0;  ///< virtual seconds per byte on the wire
+  double per_hop_s = 0;   ///< virtual seconds per link crossed
+  double service_s = 0;   ///< receiver's cost to serve a message at interrupt level
+  double scale = 1;       ///< the factor applied to the preset's real figures
+
+  /// Transfer time of `bytes` over `hops` links, virtual seconds.
+  double message_time(std::uint64_t bytes, std::uint32_t hops) const {
+    return latency_s + double(bytes) * per_byte_s + double(hops) * per_hop_s;
+  }
+};
+
+/// A preset by name ("none", "ipsc2", "cluster"). `seconds_per_ray` is this
+/// machine's tracing speed (used by ipsc2 only; <= 0 means calibrate now).
+/// Throws std::invalid_argument for an unknown name.
+NetworkModel make_network(const std::string& name, double seconds_per_ray = 0);
+
+/// Seconds per ray of the sequential tracer on this machine, one thread:
+/// teapot:8 at 64x64 pixels, best of 3 (about 0.1 s in all).
+double calibrate_seconds_per_ray();
+
+}  // namespace raynode::nodes

@@ -1,0 +1,189 @@
+#include "nodes/node.h"
+
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <cstring>
+#include <thread>
+
+#include "nodes/cpu_time.h"
+#include "nodes/machine.h"
+
+namespace raynode::nodes {
+
+MessageCounts NodeCounters::total_sent() const {
+  MessageCounts t;
+  for (const MessageCounts& c : sent) t.messages += c.messages, t.bytes += c.bytes;
+  return t;
+}
+
+MessageCounts NodeCounters::total_received() const {
+  MessageCounts t;
+  for (const MessageCounts& c : received) t.messages += c.messages, t.bytes += c.bytes;
+  return t;
+}
+
+NodeCounters& NodeCounters::operator+=(const NodeCounters& o) {
+  for (std::size_t i = 0; i < kMessageTypeCount; ++i) {
+    sent[i].messages += o.sent[i].messages;
+    sent[i].bytes += o.sent[i].bytes;
+    received[i].messages += o.received[i].messages;
+    received[i].bytes += o.received[i].bytes;
+  }
+  busy_s += o.busy_s;
+  idle_s += o.idle_s;
+  communication_s += o.communication_s;
+  overhead_cpu_s += o.overhead_cpu_s;
+  full_mailbox_retries += o.full_mailbox_retries;
+  backlog_peak = std::max(backlog_peak, o.backlog_peak);
+  return *this;
+}
+
+NodeContext::NodeContext(MachineState& machine, NodeId id, std::size_t budget, std::uint32_t mailbox_capacity,
+                         std::uint32_t max_payload)
+    : machine_(&machine),
+      id_(id),
+      arena_(id, budget),
+      mailbox_(std::make_unique<Mailbox>(arena_, mailbox_capacity, max_payload)),
+      receive_buffer_(arena_, max_payload, "its receive buffer"),
+      backlog_(&arena_),
+      backlog_current_(&arena_) {}
+
+NodeContext::~NodeContext() {
+  backlog_.clear();
+  backlog_current_ = std::pmr::vector<std::byte>(&arena_);
+}
+
+std::uint32_t NodeContext::node_count() const { return machine_->params.nodes; }
+const Topology& NodeContext::topology() const { return machine_->topology; }
+const NetworkModel& NodeContext::network() const { return machine_->params.network; }
+
+void NodeContext::sync_compute() {
+  const double cpu = thread_cpu_seconds();
+  const double d = std::max(0.0, cpu - cpu_mark_);
+  clock_ += d;
+  counters_.busy_s += d;
+  cpu_mark_ = cpu;
+}
+
+void NodeContext::end_messaging() {
+  const double cpu = thread_cpu_seconds();
+  counters_.overhead_cpu_s += std::max(0.0, cpu - cpu_mark_);
+  cpu_mark_ = cpu;
+}
+
+double NodeContext::now() {
+  sync_compute();
+  return clock_;
+}
+
+void NodeContext::charge(double seconds) {
+  sync_compute();
+  clock_ += seconds;
+  counters_.busy_s += seconds;
+}
+
+void NodeContext::reset_cpu_mark() { cpu_mark_ = thread_cpu_seconds(); }
+
+void NodeContext::check_stop() const {
+  if (machine_->stop.load(std::memory_order_acquire)) throw RunAborted();
+}
+
+bool NodeContext::push_to(NodeId dest, MessageHeader& header, std::span<const std::span<const std::byte>> parts) {
+  if (dest != kHost && dest >= machine_->params.nodes)
+    throw std::logic_error(fmt::format("{} sent a {} message to node {}, but the machine has {} nodes",
+                                       node_name(id_), message_type_name(header.type), dest,
+                                       machine_->params.nodes));
+  if (dest != kHost && machine_->finished[dest].load(std::memory_order_acquire))
+    throw std::logic_error(fmt::format("{} sent a {} message to node {}, which has finished", node_name(id_),
+                                       message_type_name(header.type), dest));
+  return machine_->context(dest).mailbox().try_push(header, parts);
+}
+
+bool NodeContext::try_send(NodeId dest, MessageType type, std::span<const std::span<const std::byte>> parts,
+                           double depart, std::uint32_t wire_bytes) {
+  sync_compute();
+  check_stop();
+  MessageHeader h;
+  h.type = type;
+  h.source = id_;
+  std::size_t bytes = 0;
+  for (const auto& p : parts) bytes += p.size();
+  h.wire_bytes = wire_bytes ? wire_bytes : std::uint32_t(bytes);
+  h.send_time = depart >= 0 ? depart : clock_;
+  h.arrival_time = h.send_time + network().message_time(h.wire_bytes, topology().hops(id_, dest));
+  const bool ok = push_to(dest, h, parts);
+  if (ok) {
+    MessageCounts& c = counters_.sent[std::size_t(type)];
+    ++c.messages;
+    c.bytes += h.wire_bytes;
+  }
+  end_messaging();
+  return ok;
+}
+
+void NodeContext::send(NodeId dest, MessageType type, std::span<const std::span<const std::byte>> parts,
+                       double depart, std::uint32_t wire_bytes) {
+  if (try_send(dest, type, parts, depart, wire_bytes)) return;
+  // The destination is full: wait for room, parking our own incoming mail
+  // so that whoever fills our mailbox can go on (no cycle of full mailboxes
+  // can block everyone). Parked messages live in our arena.
+  MessageHeader h;
+  int spins = 0;
+  while (true) {
+    ++counters_.full_mailbox_retries;
+    while (mailbox_->try_pop(h, receive_buffer_.data())) {
+      backlog_.push_back(Parked{h, std::pmr::vector<std::byte>(receive_buffer_.data(),
+                                                               receive_buffer_.data() + h.payload_bytes, &arena_)});
+      counters_.backlog_peak = std::max<std::uint64_t>(counters_.backlog_peak, backlog_.size());
+    }
+    if (++spins < 64) std::this_thread::yield();
+    else std::this_thread::sleep_for(std::chrono::microseconds(50));
+    if (try_send(dest, type, parts, depart, wire_bytes)) return;
+  }
+}
+
+Message NodeContext::take(const MessageHeader& h, std::span<const std::byte> payload) {
+  MessageCounts& c = counters_.received[std::size_t(h.type)];
+  ++c.messages;
+  c.bytes += h.wire_bytes;
+  return Message{h, payload};
+}
+
+bool NodeContext::poll(Message& out) {
+  sync_compute();
+  check_stop();
+  bool got = false;
+  if (!backlog_.empty()) {
+    Parked p = std::move(backlog_.front());
+    backlog_.pop_front();
+    backlog_current_ = std::move(p.payload);
+    out = take(p.header, backlog_current_);
+    got = true;
+  } else {
+    MessageHeader h;
+    if (mailbox_->try_pop(h, receive_buffer_.data())) {
+      out = take(h, std::span<const std::byte>(receive_buffer_.data(), h.payload_bytes));
+      got = true;
+    }
+  }
+  end_messaging();
+  return got;
+}
+
+Message NodeContext::receive(WaitKind kind) {
+  Message m;
+  while (!poll(m)) {
+    sync_compute();
+    mailbox_->wait(machine_->stop);
+    end_messaging();
+  }
+  if (m.header.arrival_time > clock_) {
+    const double gap = m.header.arrival_time - clock_;
+    clock_ = m.header.arrival_time;
+    (kind == WaitKind::kIdle ? counters_.idle_s : counters_.communication_s) += gap;
+  }
+  return m;
+}
+
+}  // namespace raynode::nodes

@@ -1,0 +1,174 @@
+// A node's whole world: its id, arena, mailbox, virtual clock, counters and
+// the topology (DESIGN.md, "The node emulator"; CONVENTIONS: "node code
+// reaches its world only through its node context").
+//
+// Place in the data flow: Machine::run creates one NodeContext per node (and
+// one for the host), hands it to the node's main function on the node's
+// thread; node code sends and receives through it and allocates from its
+// arena.
+//
+// Virtual time. The clock advances by the thread's own CPU time while node
+// code computes (sampled at each messaging call), by explicit charges
+// (charge()), and by waiting: a blocking receive sets clock = max(clock,
+// arrival) and books the gap as idle or communication time. CPU time spent
+// inside the messaging layer itself is *not* added to the clock (the network
+// model's latency stands for the real machine's message software); it is
+// reported as `overhead_cpu_s`. Handlers that serve a message at interrupt
+// level (a page request, a work request) use the message's arrival time:
+// they reply with send(..., depart = arrival + service) without moving the
+// clock, and charge() the service cost to the serving node.
+//
+// Thread safety: a NodeContext belongs to its node's thread; only the
+// machine-wide stop and the peers' mailboxes are touched by other threads.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <memory_resource>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "nodes/arena.h"
+#include "nodes/mailbox.h"
+#include "nodes/message.h"
+#include "nodes/network.h"
+#include "nodes/topology.h"
+
+namespace raynode::nodes {
+
+/// Thrown inside node code when the run is being stopped because another
+/// participant failed (or the watchdog fired); Machine::run swallows it.
+class RunAborted : public std::runtime_error {
+ public:
+  RunAborted() : std::runtime_error("run aborted") {}
+};
+
+/// How a blocking receive books the time it waits.
+enum class WaitKind {
+  kIdle,           ///< nothing to do (waiting for work or for the end)
+  kCommunication,  ///< waiting for data needed to go on (e.g. a page)
+};
+
+/// Per-type message counters.
+struct MessageCounts {
+  std::uint64_t messages = 0;
+  std::uint64_t bytes = 0;  ///< wire bytes
+};
+
+/// A node's counters (virtual seconds, messages, memory).
+struct NodeCounters {
+  std::array<MessageCounts, kMessageTypeCount> sent{};
+  std::array<MessageCounts, kMessageTypeCount> received{};
+  double busy_s = 0;           ///< computing: own CPU time plus charges
+  double idle_s = 0;           ///< blocked with nothing to do
+  double communication_s = 0;  ///< blocked waiting for data
+  double overhead_cpu_s = 0;   ///< CPU time in the emulator's messaging code (not in the clock)
+  std::uint64_t full_mailbox_retries = 0;  ///< send() attempts that found the destination full
+  std::uint64_t backlog_peak = 0;          ///< most messages parked while a send waited
+
+  MessageCounts total_sent() const;
+  MessageCounts total_received() const;
+  NodeCounters& operator+=(const NodeCounters& o);
+};
+
+class MachineState;  // machine.h: what all participants share
+
+class NodeContext {
+ public:
+  /// Built by Machine. `mailbox_capacity` slots of `max_payload` bytes are
+  /// taken from `budget` (the host's budget is unbounded).
+  NodeContext(MachineState& machine, NodeId id, std::size_t budget, std::uint32_t mailbox_capacity,
+              std::uint32_t max_payload);
+  NodeContext(const NodeContext&) = delete;
+  NodeContext& operator=(const NodeContext&) = delete;
+  ~NodeContext();
+
+  NodeId id() const { return id_; }
+  bool is_host() const { return id_ == kHost; }
+  std::uint32_t node_count() const;
+  const Topology& topology() const;
+  const NetworkModel& network() const;
+  Arena& arena() { return arena_; }
+  Mailbox& mailbox() { return *mailbox_; }
+  const NodeCounters& counters() const { return counters_; }
+
+  // --- Virtual time -----------------------------------------------------
+  /// The clock in virtual seconds, after adding the CPU time computed since
+  /// the last sample.
+  double now();
+  /// Adds a modelled cost (e.g. serving a request) as busy time.
+  void charge(double seconds);
+  /// Starts measuring from here: drops CPU time since the last sample (used
+  /// after a load phase that is not part of the run).
+  void reset_cpu_mark();
+
+  // --- Sending ------------------------------------------------------------
+  /// Sends `parts` (concatenated) to `dest` as a message of `type`. Departs
+  /// at now(), or at `depart` when >= 0 (interrupt-level replies). Blocks
+  /// while the destination mailbox is full, parking this node's own incoming
+  /// messages meanwhile so that two nodes sending to each other cannot
+  /// deadlock. Throws RunAborted, std::length_error (payload too big),
+  /// std::logic_error (dest out of range or finished).
+  void send(NodeId dest, MessageType type, std::span<const std::span<const std::byte>> parts, double depart = -1,
+            std::uint32_t wire_bytes = 0);
+  /// As send, but returns false (nothing sent, nothing counted) when the
+  /// destination mailbox is full.
+  bool try_send(NodeId dest, MessageType type, std::span<const std::span<const std::byte>> parts,
+                double depart = -1, std::uint32_t wire_bytes = 0);
+
+  /// Typed conveniences: the payload is `msg`'s bytes, then `tail`.
+  template <class M>
+  void send(NodeId dest, MessageType type, const M& msg, std::span<const std::byte> tail = {}, double depart = -1) {
+    static_assert(std::is_trivially_copyable_v<M>, "messages are plain structs");
+    const std::span<const std::byte> parts[2] = {std::as_bytes(std::span<const M, 1>(&msg, 1)), tail};
+    send(dest, type, std::span<const std::span<const std::byte>>(parts, 2), depart);
+  }
+  template <class M>
+  bool try_send(NodeId dest, MessageType type, const M& msg, std::span<const std::byte> tail = {},
+                double depart = -1) {
+    static_assert(std::is_trivially_copyable_v<M>, "messages are plain structs");
+    const std::span<const std::byte> parts[2] = {std::as_bytes(std::span<const M, 1>(&msg, 1)), tail};
+    return try_send(dest, type, std::span<const std::span<const std::byte>>(parts, 2), depart);
+  }
+
+  // --- Receiving ----------------------------------------------------------
+  /// Blocks for the next message; the clock becomes max(clock, arrival) and
+  /// the gap is booked as `kind`. The returned payload is valid until the
+  /// next receive/poll. Throws RunAborted.
+  Message receive(WaitKind kind);
+  /// The next message if one is queued, without waiting and without moving
+  /// the clock (interrupt-level handling: use header.arrival_time).
+  bool poll(Message& out);
+
+ private:
+  friend class Machine;
+  bool push_to(NodeId dest, MessageHeader& header, std::span<const std::span<const std::byte>> parts);
+  void sync_compute();
+  void end_messaging();
+  Message take(const MessageHeader& h, std::span<const std::byte> payload);
+  void check_stop() const;
+
+  MachineState* machine_;
+  NodeId id_;
+  Arena arena_;
+  std::unique_ptr<Mailbox> mailbox_;
+  ArenaArray<std::byte> receive_buffer_;
+  /// Messages parked while a blocking send waited: header + payload copies.
+  struct Parked {
+    MessageHeader header;
+    std::pmr::vector<std::byte> payload;
+  };
+  std::pmr::deque<Parked> backlog_;
+  std::pmr::vector<std::byte> backlog_current_;
+  double clock_ = 0;
+  double cpu_mark_ = 0;
+  NodeCounters counters_;
+};
+
+}  // namespace raynode::nodes

@@ -1,0 +1,231 @@
+#include "nodes/work.h"
+
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <cstring>
+#include <stdexcept>
+
+namespace raynode::nodes {
+
+namespace {
+
+void split(const Rect& r, std::uint32_t n, std::vector<Rect>& out) {
+  if (n == 1) {
+    out.push_back(r);
+    return;
+  }
+  const std::uint32_t a = n / 2, b = n - a;
+  Rect left = r, right = r;
+  if (r.width() >= r.height()) {
+    const std::int32_t cut = r.x0 + std::int32_t(std::int64_t(r.width()) * a / n);
+    left.x1 = right.x0 = cut;
+  } else {
+    const std::int32_t cut = r.y0 + std::int32_t(std::int64_t(r.height()) * a / n);
+    left.y1 = right.y0 = cut;
+  }
+  split(left, a, out);
+  split(right, b, out);
+}
+
+}  // namespace
+
+std::vector<Rect> make_submaps(std::int32_t width, std::int32_t height, std::uint32_t n) {
+  if (n == 0) throw std::invalid_argument("make_submaps: n must be >= 1");
+  std::vector<Rect> out;
+  out.reserve(n);
+  split(Rect{0, 0, width, height}, n, out);
+  return out;
+}
+
+WorkPool::WorkPool(const Rect& area, std::int32_t item_w, std::int32_t item_h)
+    : area_(area), item_w_(std::max(1, item_w)), item_h_(std::max(1, item_h)) {
+  if (area.empty()) return;
+  cols_ = std::uint32_t((area.width() + item_w_ - 1) / item_w_);
+  const std::uint32_t rows = std::uint32_t((area.height() + item_h_ - 1) / item_h_);
+  back_ = cols_ * rows;
+}
+
+Rect WorkPool::item(std::uint32_t index) const {
+  const std::int32_t cx = std::int32_t(index % cols_), cy = std::int32_t(index / cols_);
+  Rect r;
+  r.x0 = area_.x0 + cx * item_w_;
+  r.y0 = area_.y0 + cy * item_h_;
+  r.x1 = std::min(r.x0 + item_w_, area_.x1);
+  r.y1 = std::min(r.y0 + item_h_, area_.y1);
+  return r;
+}
+
+bool WorkPool::take_front(Rect& out) {
+  if (front_ >= back_) return false;
+  out = item(front_++);
+  return true;
+}
+
+bool WorkPool::take_back(Rect& out) {
+  if (front_ >= back_) return false;
+  out = item(--back_);
+  return true;
+}
+
+WorkStats& WorkStats::operator+=(const WorkStats& o) {
+  items_own += o.items_own;
+  items_received += o.items_received;
+  pixels += o.pixels;
+  requests_sent += o.requests_sent;
+  requests_forwarded += o.requests_forwarded;
+  requests_returned += o.requests_returned;
+  grants_given += o.grants_given;
+  request_hops += o.request_hops;
+  done_time_s = std::max(done_time_s, o.done_time_s);
+  return *this;
+}
+
+std::uint32_t pixels_payload_bytes(std::int32_t item_w, std::int32_t item_h, std::uint32_t channels) {
+  return std::uint32_t(sizeof(PixelsMsg) + std::size_t(item_w) * item_h * channels * sizeof(float));
+}
+
+void send_pixels(NodeContext& ctx, const Rect& rect, std::uint32_t channels, std::span<const float> pixels) {
+  if (pixels.size() != std::size_t(rect.area()) * channels)
+    throw std::logic_error(fmt::format("send_pixels: {} floats for a {}x{}x{} block", pixels.size(), rect.width(),
+                                       rect.height(), channels));
+  const PixelsMsg head{rect, channels};
+  ctx.send(kHost, MessageType::kPixels, head, std::as_bytes(pixels));
+}
+
+namespace {
+
+/// The farm's state machine on one node.
+class Farm {
+ public:
+  Farm(NodeContext& ctx, const OtherMessageHandler& other) : ctx_(ctx), other_(other) {}
+
+  /// Serves a message at interrupt level; returns true if it was our own
+  /// request coming back (end of work).
+  bool handle(const Message& m, WorkPool& pool, bool& have_grant, Rect& grant) {
+    const double at = m.header.arrival_time + ctx_.network().service_s;
+    switch (m.type()) {
+      case MessageType::kWorkRequest: {
+        WorkRequestMsg r = m.as<WorkRequestMsg>();
+        if (r.origin == ctx_.id()) {
+          stats.request_hops += r.hops;
+          ++stats.requests_returned;
+          return true;
+        }
+        Rect item;
+        ctx_.charge(ctx_.network().service_s);
+        if (pool.take_back(item)) {
+          ctx_.send(r.origin, MessageType::kWorkGrant, WorkGrantMsg{item}, {}, at);
+          ++stats.grants_given;
+        } else {
+          ++r.hops;
+          ctx_.send(ctx_.topology().ring_next(ctx_.id()), MessageType::kWorkRequest, r, {}, at);
+          ++stats.requests_forwarded;
+        }
+        return false;
+      }
+      case MessageType::kWorkGrant:
+        if (have_grant) throw std::logic_error(fmt::format("{}: a second work grant while one is pending",
+                                                           node_name(ctx_.id())));
+        grant = m.as<WorkGrantMsg>().item;
+        have_grant = true;
+        return false;
+      default:
+        if (other_ && other_(ctx_, m)) return false;
+        throw std::logic_error(fmt::format("{}: unexpected {} message from {} during the work phase",
+                                           node_name(ctx_.id()), message_type_name(m.type()),
+                                           node_name(m.source())));
+    }
+  }
+
+  NodeContext& ctx_;
+  const OtherMessageHandler& other_;
+  WorkStats stats;
+};
+
+}  // namespace
+
+WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_w, std::int32_t item_h,
+                        const std::function<void(NodeContext&, const Rect&)>& render_item,
+                        const OtherMessageHandler& other) {
+  Farm farm(ctx, other);
+  WorkPool pool(submap, item_w, item_h);
+  bool have_grant = false, request_out = false, done = false;
+  Rect grant;
+  Message m;
+  while (!done) {
+    // Interrupts first: requests are answered while we still have items.
+    while (!done && ctx.poll(m)) done = farm.handle(m, pool, have_grant, grant);
+    if (done) break;
+    Rect item;
+    if (pool.take_front(item)) {
+      render_item(ctx, item);
+      ++farm.stats.items_own;
+      farm.stats.pixels += std::uint64_t(item.area());
+      continue;
+    }
+    if (have_grant) {
+      have_grant = false;
+      request_out = false;
+      render_item(ctx, grant);
+      ++farm.stats.items_received;
+      farm.stats.pixels += std::uint64_t(grant.area());
+      continue;
+    }
+    if (!request_out) {
+      ctx.send(ctx.topology().ring_next(ctx.id()), MessageType::kWorkRequest, WorkRequestMsg{ctx.id(), 1});
+      ++farm.stats.requests_sent;
+      request_out = true;
+    }
+    m = ctx.receive(WaitKind::kIdle);
+    done = farm.handle(m, pool, have_grant, grant);
+  }
+  farm.stats.done_time_s = ctx.now();
+  ctx.send(kHost, MessageType::kNodeDone, WorkRequestMsg{ctx.id(), 0});
+  // Serve others (forward their requests, mode messages) until shutdown.
+  while (true) {
+    m = ctx.receive(WaitKind::kIdle);
+    if (m.type() == MessageType::kShutdown) break;
+    farm.handle(m, pool, have_grant, grant);
+    if (have_grant) throw std::logic_error(fmt::format("{}: a work grant after its work ended", node_name(ctx.id())));
+  }
+  return farm.stats;
+}
+
+std::uint64_t gather_pixels(
+    NodeContext& host,
+    const std::function<void(NodeId, const Rect&, std::uint32_t, std::span<const float>)>& store,
+    const OtherMessageHandler& other) {
+  const std::uint32_t n = host.node_count();
+  std::uint32_t done = 0;
+  std::uint64_t pixels = 0;
+  std::vector<float> buffer;
+  while (done < n) {
+    const Message m = host.receive(WaitKind::kIdle);
+    switch (m.type()) {
+      case MessageType::kPixels: {
+        const PixelsMsg head = m.as<PixelsMsg>();
+        const std::span<const std::byte> tail = m.tail<PixelsMsg>();
+        const std::size_t count = std::size_t(head.rect.area()) * head.channels;
+        if (tail.size() != count * sizeof(float))
+          throw std::logic_error(fmt::format("host: pixel message from {} has {} B for a {}x{}x{} block",
+                                             node_name(m.source()), tail.size(), head.rect.width(),
+                                             head.rect.height(), head.channels));
+        buffer.resize(count);
+        std::memcpy(buffer.data(), tail.data(), tail.size());
+        store(m.source(), head.rect, head.channels, buffer);
+        pixels += std::uint64_t(head.rect.area());
+        break;
+      }
+      case MessageType::kNodeDone: ++done; break;
+      default:
+        if (other && other(host, m)) break;
+        throw std::logic_error(fmt::format("host: unexpected {} message from {}", message_type_name(m.type()),
+                                           node_name(m.source())));
+    }
+  }
+  for (NodeId i = 0; i < n; ++i) host.send(i, MessageType::kShutdown, WorkRequestMsg{kHost, 0});
+  return pixels;
+}
+
+}  // namespace raynode::nodes

@@ -1,0 +1,121 @@
+// Work distribution over the pixels (the paper's control-oriented
+// scheduling, reused by replicated and svm modes; DESIGN.md, "svm"):
+// each node owns a near-square submap of the image, renders it work item by
+// work item (default 3x3 pixels) from its near end, and when it runs dry
+// sends a work request around the ring embedded in the topology. A busy node
+// grants the requester one work item from the far end of its submap; an
+// idle node forwards the request to its ring successor; a request that
+// comes back to its origin unsatisfied means no node has work left to give,
+// so the origin's work is over. Finished pixels go to the host, which
+// assembles the frame and, once every node has reported done, shuts the
+// machine down.
+//
+// Place in the data flow: mode's node_main -> run_work_farm(ctx, submap,
+// render_item) -> render_item(rect) computes pixels and calls
+// send_pixels(); mode's host_main -> gather_pixels(host ctx, image).
+//
+// Message handling is interrupt-like (node.h): a work request is answered
+// at its arrival time plus the network's service cost.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <vector>
+
+#include "nodes/node.h"
+
+namespace raynode::nodes {
+
+/// A pixel rectangle [x0, x1) x [y0, y1).
+struct Rect {
+  std::int32_t x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  std::int32_t width() const { return x1 - x0; }
+  std::int32_t height() const { return y1 - y0; }
+  std::int64_t area() const { return std::int64_t(width()) * height(); }
+  bool empty() const { return x1 <= x0 || y1 <= y0; }
+  bool operator==(const Rect&) const = default;
+};
+
+/// Splits width x height into exactly `n` rectangles covering every pixel
+/// once, by recursive bisection of the longer side into parts proportional
+/// to floor(n/2) : ceil(n/2) nodes, so that every count (not only powers of
+/// two) gets near-square submaps of near-equal area. Rectangle i belongs to
+/// node i. When n exceeds the pixel count some rectangles are empty.
+std::vector<Rect> make_submaps(std::int32_t width, std::int32_t height, std::uint32_t n);
+
+/// The not-yet-started work items of a rectangle, in row-major order of
+/// item_w x item_h blocks (the last row/column may be smaller). Taken from
+/// the front by the owner, from the back by work requests.
+class WorkPool {
+ public:
+  WorkPool() = default;
+  WorkPool(const Rect& area, std::int32_t item_w, std::int32_t item_h);
+  bool take_front(Rect& item);
+  bool take_back(Rect& item);
+  std::uint32_t remaining() const { return back_ - front_; }
+
+ private:
+  Rect item(std::uint32_t index) const;
+  Rect area_;
+  std::int32_t item_w_ = 1, item_h_ = 1;
+  std::uint32_t cols_ = 0;
+  std::uint32_t front_ = 0, back_ = 0;
+};
+
+/// Messages of the protocol (trivially copyable; wire size = sizeof).
+struct WorkRequestMsg {
+  NodeId origin;
+  std::uint32_t hops;  ///< ring hops travelled so far
+};
+struct WorkGrantMsg {
+  Rect item;
+};
+/// Header of a kPixels message; followed by width*height*channels floats, row-major.
+struct PixelsMsg {
+  Rect rect;
+  std::uint32_t channels;
+};
+
+/// Counters of the work distribution on one node.
+struct WorkStats {
+  std::uint64_t items_own = 0;         ///< items rendered from the own submap
+  std::uint64_t items_received = 0;    ///< items received by grants and rendered
+  std::uint64_t pixels = 0;            ///< pixels rendered
+  std::uint64_t requests_sent = 0;     ///< own requests started
+  std::uint64_t requests_forwarded = 0;
+  std::uint64_t requests_returned = 0; ///< own request came back: end of work (0 or 1)
+  std::uint64_t grants_given = 0;
+  std::uint64_t request_hops = 0;      ///< ring hops of own requests until granted or returned
+  double done_time_s = 0;              ///< virtual time the node's work ended
+  WorkStats& operator+=(const WorkStats& o);
+};
+
+/// Handler for messages the farm does not know (svm's page requests...):
+/// returns false if it does not know them either (then the farm throws).
+using OtherMessageHandler = std::function<bool(NodeContext&, const Message&)>;
+
+/// A node's side of the distribution: renders `submap` item by item with
+/// render_item(ctx, rect), serving requests between items, then requests
+/// work until its request returns, reports done to the host and serves
+/// until the host's shutdown. Returns the node's counters. Throws what
+/// render_item throws, RunAborted, std::logic_error on a protocol error.
+WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_w, std::int32_t item_h,
+                        const std::function<void(NodeContext&, const Rect&)>& render_item,
+                        const OtherMessageHandler& other = {});
+
+/// Sends `pixels` (rect.area() * channels floats, row-major) to the host.
+void send_pixels(NodeContext& ctx, const Rect& rect, std::uint32_t channels, std::span<const float> pixels);
+
+/// The host's side: receives pixel blocks and calls store(source, rect,
+/// channels, pixels) for each, until every node reported done; then sends
+/// shutdown to every node. Returns the number of pixels received.
+std::uint64_t gather_pixels(
+    NodeContext& host,
+    const std::function<void(NodeId, const Rect&, std::uint32_t, std::span<const float>)>& store,
+    const OtherMessageHandler& other = {});
+
+/// Payload bytes a kPixels message of an item_w x item_h block needs.
+std::uint32_t pixels_payload_bytes(std::int32_t item_w, std::int32_t item_h, std::uint32_t channels);
+
+}  // namespace raynode::nodes

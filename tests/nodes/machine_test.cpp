@@ -1,0 +1,200 @@
+#include <doctest/doctest.h>
+
+#include <atomic>
+#include <string>
+#include <vector>
+
+#include "nodes/machine.h"
+
+using namespace raynode::nodes;
+
+namespace {
+
+struct Token {
+  std::uint32_t laps;
+  std::uint32_t visits;
+};
+
+/// A token travels the ring `laps` times; node 0 then tells the host.
+void token_ring_node(NodeContext& ctx, std::uint32_t laps) {
+  const NodeId next = ctx.topology().ring_next(ctx.id());
+  if (ctx.id() == 0) ctx.send(next, MessageType::kToken, Token{0, 1});
+  while (true) {
+    const Message m = ctx.receive(WaitKind::kIdle);
+    if (m.type() == MessageType::kShutdown) return;
+    Token t = m.as<Token>();
+    if (ctx.id() == 0 && ++t.laps == laps) {
+      ctx.send(kHost, MessageType::kToken, t);
+      continue;
+    }
+    ++t.visits;
+    ctx.send(next, MessageType::kToken, t);
+  }
+}
+
+void shutdown_after_token(NodeContext& host, Token& out) {
+  const Message m = host.receive(WaitKind::kIdle);
+  out = m.as<Token>();
+  for (NodeId i = 0; i < host.node_count(); ++i) host.send(i, MessageType::kShutdown, Token{});
+}
+
+}  // namespace
+
+TEST_CASE("machine: 256 nodes pass a token round the ring 3 times and all terminate cleanly") {
+  MachineParams p;
+  p.nodes = 256;
+  p.timeout_s = 60;
+  Machine machine(p);
+  Token result{};
+  const RunReport r = machine.run([](NodeContext& ctx) { token_ring_node(ctx, 3); },
+                                  [&](NodeContext& host) { shutdown_after_token(host, result); });
+  CHECK(result.laps == 3);
+  CHECK(result.visits == 3 * 256);  // 255 per lap, +1 at the start, +1 by node 0 on each lap but the last
+  REQUIRE(r.nodes.size() == 256);
+  const NodeCounters total = r.total();
+  CHECK(total.sent[std::size_t(MessageType::kToken)].messages == 3 * 256 + 1);
+  CHECK(total.received[std::size_t(MessageType::kShutdown)].messages == 256);
+  CHECK(total.sent[std::size_t(MessageType::kToken)].bytes == (3 * 256 + 1) * sizeof(Token));
+  for (const NodeReport& n : r.nodes) CHECK(n.counters.received[std::size_t(MessageType::kToken)].messages == 3);
+}
+
+TEST_CASE("machine: an exception in one node stops the run and reaches the caller with the node id") {
+  MachineParams p;
+  p.nodes = 8;
+  p.timeout_s = 60;
+  Machine machine(p);
+  try {
+    machine.run(
+        [](NodeContext& ctx) {
+          if (ctx.id() == 5) throw std::runtime_error("boom in the tracer");
+          ctx.receive(WaitKind::kIdle);  // everyone else blocks: must be woken
+        },
+        [](NodeContext& host) { host.receive(WaitKind::kIdle); });
+    FAIL("run must throw");
+  } catch (const NodeError& e) {
+    CHECK(e.node == 5);
+    CHECK(std::string(e.what()) == "node 5: boom in the tracer");
+  }
+}
+
+TEST_CASE("machine: a node that exceeds its memory fails the run with the sizes named") {
+  MachineParams p;
+  p.nodes = 4;
+  p.node_memory = 64 * 1024;
+  p.timeout_s = 60;
+  Machine machine(p);
+  try {
+    machine.run(
+        [](NodeContext& ctx) {
+          if (ctx.id() == 2) ArenaArray<char> big(ctx.arena(), 100000, "its page cache");
+          ctx.receive(WaitKind::kIdle);
+        },
+        [](NodeContext& host) { host.receive(WaitKind::kIdle); });
+    FAIL("run must throw");
+  } catch (const NodeError& e) {
+    CHECK(e.node == 2);
+    const std::string what = e.what();
+    CHECK(what.rfind("node 2: out of node memory: its page cache needs", 0) == 0);
+    CHECK(what.find("64 KiB") != std::string::npos);
+  }
+}
+
+TEST_CASE("machine: the watchdog stops a run that would hang") {
+  MachineParams p;
+  p.nodes = 3;
+  p.timeout_s = 0.3;
+  Machine machine(p);
+  CHECK_THROWS_WITH_AS(machine.run([](NodeContext& ctx) { ctx.receive(WaitKind::kIdle); },
+                                   [](NodeContext& host) { host.receive(WaitKind::kIdle); }),
+                       doctest::Contains("watchdog"), NodeError);
+}
+
+TEST_CASE("machine: sending to a node that does not exist is an error, not a crash") {
+  MachineParams p;
+  p.nodes = 2;
+  p.timeout_s = 60;
+  Machine machine(p);
+  CHECK_THROWS_WITH_AS(machine.run([](NodeContext& ctx) { if (ctx.id() == 1) ctx.send(7, MessageType::kTest, Token{}); },
+                                   [](NodeContext&) {}),
+                       doctest::Contains("node 7, but the machine has 2 nodes"), NodeError);
+}
+
+TEST_CASE("machine: virtual time follows the network model — arrival = send + latency + bytes x per-byte + hops x per-hop") {
+  MachineParams p;
+  p.nodes = 8;
+  p.topology = TopologyKind::kHypercube;
+  p.network.name = "test";
+  p.network.latency_s = 100;     // large against any CPU time in the test
+  p.network.per_byte_s = 1;
+  p.network.per_hop_s = 1000;
+  p.timeout_s = 60;
+  Machine machine(p);
+  std::vector<double> arrival(8, 0), sent_at(8, 0), clock_after(8, 0);
+  const RunReport r = machine.run(
+      [&](NodeContext& ctx) {
+        if (ctx.id() == 0) {
+          for (NodeId d = 1; d < 8; ++d) {
+            sent_at[d] = ctx.now();
+            ctx.send(d, MessageType::kTest, Token{});  // 8 bytes
+          }
+        } else {
+          const Message m = ctx.receive(WaitKind::kCommunication);
+          arrival[ctx.id()] = m.header.arrival_time;
+          clock_after[ctx.id()] = ctx.now();
+        }
+      },
+      [](NodeContext&) {});
+  for (NodeId d = 1; d < 8; ++d) {
+    const double hops = double(Topology(TopologyKind::kHypercube, 8).hops(0, d));
+    // The send departs a few microseconds of CPU time after now() was read.
+    const double expected = sent_at[d] + 100 + 8 * 1 + hops * 1000;
+    CHECK(arrival[d] >= expected);
+    CHECK(arrival[d] <= expected + 0.05);
+    CHECK(clock_after[d] >= arrival[d]);
+    CHECK(r.nodes[d].counters.communication_s >= arrival[d] - 1.0);  // waited for it (minus CPU time, < 1 s)
+  }
+  CHECK(r.parallel_time_s >= 100 + 8 + 3 * 1000);  // node 7 is 3 hops away
+}
+
+TEST_CASE("machine: two nodes flooding each other's small mailboxes do not deadlock") {
+  MachineParams p;
+  p.nodes = 2;
+  p.mailbox_capacity = 2;
+  p.timeout_s = 60;
+  Machine machine(p);
+  constexpr std::uint32_t kCount = 5000;
+  std::vector<std::uint32_t> got(2, 0);
+  machine.run(
+      [&](NodeContext& ctx) {
+        const NodeId other = 1 - ctx.id();
+        for (std::uint32_t i = 0; i < kCount; ++i) ctx.send(other, MessageType::kTest, Token{i, 0});
+        std::uint32_t expect = 0;
+        while (expect < kCount) {
+          const Message m = ctx.receive(WaitKind::kIdle);
+          if (m.as<Token>().laps == expect) ++expect;
+          else break;
+        }
+        got[ctx.id()] = expect;
+        ctx.send(kHost, MessageType::kNodeDone, Token{});
+        ctx.receive(WaitKind::kIdle);  // shutdown
+      },
+      [](NodeContext& host) {
+        for (int i = 0; i < 2; ++i) host.receive(WaitKind::kIdle);
+        for (NodeId n = 0; n < 2; ++n) host.send(n, MessageType::kShutdown, Token{});
+      });
+  CHECK(got[0] == kCount);
+  CHECK(got[1] == kCount);
+}
+
+TEST_CASE("machine: bad parameters and byte sizes are refused with a message") {
+  MachineParams p;
+  p.nodes = 0;
+  CHECK_THROWS_AS(Machine{p}, std::invalid_argument);
+  CHECK(parse_bytes("4MiB") == 4u << 20);
+  CHECK(parse_bytes("512KiB") == 512u << 10);
+  CHECK(parse_bytes("65536") == 65536);
+  CHECK(parse_bytes("2m") == 2u << 20);
+  CHECK_THROWS_AS(parse_bytes("four"), std::invalid_argument);
+  CHECK_THROWS_AS(parse_bytes("4TiB"), std::invalid_argument);
+  CHECK_THROWS_AS(parse_bytes("0"), std::invalid_argument);
+}

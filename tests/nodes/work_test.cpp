@@ -1,0 +1,117 @@
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <vector>
+
+#include "nodes/machine.h"
+#include "nodes/work.h"
+
+using namespace raynode::nodes;
+
+TEST_CASE("work: submaps cover every pixel exactly once, near-equal and no thinner than 1:3.1, for any node count") {
+  for (auto [w, h] : {std::pair{512, 512}, std::pair{640, 480}, std::pair{37, 5}})
+    for (std::uint32_t n : {1u, 2u, 3u, 5u, 7u, 16u, 24u, 63u, 64u, 100u}) {
+      CAPTURE(w);
+      CAPTURE(h);
+      CAPTURE(n);
+      const std::vector<Rect> maps = make_submaps(w, h, n);
+      REQUIRE(maps.size() == n);
+      std::vector<int> cover(std::size_t(w) * h, 0);
+      std::int64_t smallest = INT64_MAX, largest = 0;
+      for (const Rect& r : maps) {
+        for (int y = r.y0; y < r.y1; ++y)
+          for (int x = r.x0; x < r.x1; ++x) ++cover[std::size_t(y) * w + x];
+        smallest = std::min(smallest, r.area());
+        largest = std::max(largest, r.area());
+      }
+      CHECK(std::all_of(cover.begin(), cover.end(), [](int c) { return c == 1; }));
+      if (std::int64_t(w) * h >= 64 * std::int64_t(n) && w >= 64 && h >= 64) {
+        CHECK(double(largest) <= 1.1 * double(smallest) + 2 * (w + h));
+        for (const Rect& r : maps)
+          CHECK(double(std::max(r.width(), r.height())) <= 3.1 * double(std::min(r.width(), r.height())));
+      }
+    }
+}
+
+TEST_CASE("work: a pool hands out items from both ends, each once, clipped to the area") {
+  WorkPool pool(Rect{10, 20, 17, 24}, 3, 3);  // 7 x 4 -> 3 x 2 items
+  CHECK(pool.remaining() == 6);
+  Rect a, b;
+  REQUIRE(pool.take_front(a));
+  CHECK(a == Rect{10, 20, 13, 23});
+  REQUIRE(pool.take_back(b));
+  CHECK(b == Rect{16, 23, 17, 24});
+  std::int64_t area = a.area() + b.area();
+  Rect r;
+  while (pool.take_back(r)) area += r.area();
+  CHECK(area == 28);
+  CHECK_FALSE(pool.take_front(r));
+}
+
+namespace {
+
+/// Runs the farm on n nodes with a render_item that costs `work(rect)` and
+/// records who rendered each pixel; returns the owners and the stats.
+struct FarmRun {
+  std::vector<int> owner;
+  std::vector<WorkStats> stats;
+  RunReport report;
+};
+
+FarmRun run_farm(std::uint32_t n, int w, int h, bool skewed) {
+  MachineParams p;
+  p.nodes = n;
+  p.timeout_s = 120;
+  p.max_payload = pixels_payload_bytes(3, 3, 1);
+  FarmRun out;
+  out.owner.assign(std::size_t(w) * h, -1);
+  out.stats.resize(n);
+  const std::vector<Rect> maps = make_submaps(w, h, n);
+  Machine machine(p);
+  out.report = machine.run(
+      [&](NodeContext& ctx) {
+        out.stats[ctx.id()] = run_work_farm(ctx, maps[ctx.id()], 3, 3, [&](NodeContext& c, const Rect& r) {
+          // Skewed cost: pixels of the left quarter are 20x more expensive.
+          volatile double sink = 0;
+          for (int y = r.y0; y < r.y1; ++y)
+            for (int x = r.x0; x < r.x1; ++x)
+              for (int k = 0, e = (skewed && x < w / 4) ? 2000 : 100; k < e; ++k) sink = sink + k;
+          std::vector<float> px(std::size_t(r.area()), float(c.id()));
+          send_pixels(c, r, 1, px);
+        });
+      },
+      [&](NodeContext& host) {
+        gather_pixels(host, [&](NodeId src, const Rect& r, std::uint32_t ch, std::span<const float> px) {
+          CHECK(ch == 1);
+          for (int y = r.y0; y < r.y1; ++y)
+            for (int x = r.x0; x < r.x1; ++x) {
+              const float v = px[std::size_t(y - r.y0) * r.width() + (x - r.x0)];
+              CHECK(v == float(src));  // the message's source is the node that rendered it
+              int& o = out.owner[std::size_t(y) * w + x];
+              CHECK(o == -1);  // rendered once
+              o = int(src);
+            }
+        });
+      });
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("work: every pixel is rendered exactly once for N in {1, 2, 3, 7, 16, 64}, and idle nodes get work") {
+  for (std::uint32_t n : {1u, 2u, 3u, 7u, 16u, 64u}) {
+    CAPTURE(n);
+    const FarmRun run = run_farm(n, 90, 60, true);
+    CHECK(std::all_of(run.owner.begin(), run.owner.end(), [](int o) { return o >= 0; }));
+    WorkStats total;
+    for (const WorkStats& s : run.stats) total += s;
+    CHECK(total.pixels == 90u * 60u);
+    CHECK(total.items_received == total.grants_given);
+    CHECK(total.requests_returned == n);  // every node's work ends by its request returning
+    CHECK(total.requests_sent == total.grants_given + n);
+    const NodeCounters c = run.report.total();
+    CHECK(c.sent[std::size_t(MessageType::kWorkGrant)].messages == total.grants_given);
+    CHECK(c.sent[std::size_t(MessageType::kNodeDone)].messages == n);
+    if (n >= 2) CHECK(total.grants_given > 0);  // the cheap right side steals from the costly left
+  }
+}
