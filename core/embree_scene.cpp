@@ -2,6 +2,7 @@
 
 #include <embree3/rtcore.h>
 
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -30,10 +31,19 @@ void cone_bounds(const RTCBoundsFunctionArguments* args) {
   o->upper_z = b.upper.z;
 }
 
+// Embree's ray interval [tnear, tfar] is closed; EmbreeScene passes the
+// open interval (tmin, tmax) of a query as tnear = nextafter(tmin, +inf),
+// tfar = nextafter(tmax, 0) (open_interval_*), and the cone test, whose
+// interval is open, gets it back as (nextafter(tnear, -inf),
+// nextafter(tfar, +inf)): the same interval as the grid's.
+float open_interval_near(float tmin) { return std::nextafter(tmin, kInfinity); }
+float open_interval_far(float tmax) { return std::nextafter(tmax, 0.0f); }
+
 bool cone_hit(const ConeData* cd, unsigned prim_id, const RTCRay& r, float& t) {
   const Primitive& p = cd->db->primitives[(*cd->ids)[prim_id]];
-  Ray ray{{r.org_x, r.org_y, r.org_z}, {r.dir_x, r.dir_y, r.dir_z}, r.tnear, r.tfar};
-  return intersect_cone(ray, p.cone_base(), p.cone_base_radius(), p.cone_apex(), p.cone_apex_radius(), r.tfar, t);
+  const float tmin = std::nextafter(r.tnear, -kInfinity), tmax = std::nextafter(r.tfar, kInfinity);
+  Ray ray{{r.org_x, r.org_y, r.org_z}, {r.dir_x, r.dir_y, r.dir_z}, tmin, tmax};
+  return intersect_cone(ray, p.cone_base(), p.cone_base_radius(), p.cone_apex(), p.cone_apex_radius(), tmax, t);
 }
 
 void cone_intersect(const RTCIntersectFunctionNArguments* args) {
@@ -151,8 +161,8 @@ bool EmbreeScene::intersect_closest(const Ray& ray, Hit& hit) const {
   rh.ray.dir_x = ray.direction.x;
   rh.ray.dir_y = ray.direction.y;
   rh.ray.dir_z = ray.direction.z;
-  rh.ray.tnear = ray.tmin;
-  rh.ray.tfar = ray.tmax;
+  rh.ray.tnear = open_interval_near(ray.tmin);  // open interval, see cone_hit
+  rh.ray.tfar = open_interval_far(ray.tmax);
   rh.ray.mask = 0xffffffffu;
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
@@ -176,8 +186,8 @@ bool EmbreeScene::intersect_any(const Ray& ray) const {
   r.dir_x = ray.direction.x;
   r.dir_y = ray.direction.y;
   r.dir_z = ray.direction.z;
-  r.tnear = ray.tmin;
-  r.tfar = ray.tmax;
+  r.tnear = open_interval_near(ray.tmin);  // open interval, see cone_hit
+  r.tfar = open_interval_far(ray.tmax);
   r.mask = 0xffffffffu;
   rtcOccluded1(impl_->scene, &ctx, &r);
   return r.tfar < 0.0f;

@@ -7,6 +7,7 @@
 // (ray.tmin, tmax).
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 
@@ -57,11 +58,36 @@ struct TriangleHit {
   float t, u, v;
 };
 
-/// Watertight ray/triangle test (Woop et al. 2013). A ray through a shared
-/// edge or vertex of a closed mesh hits at least one of the triangles: edge
-/// functions that come out exactly zero are recomputed in double. Degenerate
-/// (zero-area) triangles never hit. Returns true with `hit` when
-/// ray.tmin < t < tmax.
+/// True when the triangle spans (nearly) zero area: |(v1-v0) x (v2-v0)| <=
+/// 1e-7 x (longest edge)^2, in double. The same criterion as
+/// is_degenerate_polygon (scene.h), so the triangles make_database drops
+/// (DatabaseParams::drop_degenerate) are exactly the ones this rejects.
+/// Called by the triangle test only for would-be hits (rare path).
+inline bool triangle_is_degenerate(const Vec3& v0, const Vec3& v1, const Vec3& v2) {
+  const double e1[3] = {double(v1.x) - v0.x, double(v1.y) - v0.y, double(v1.z) - v0.z};
+  const double e2[3] = {double(v2.x) - v0.x, double(v2.y) - v0.y, double(v2.z) - v0.z};
+  const double e3[3] = {e2[0] - e1[0], e2[1] - e1[1], e2[2] - e1[2]};
+  const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                       e1[0] * e2[1] - e1[1] * e2[0]};
+  const double l1 = e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2];
+  const double l2 = e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2];
+  const double l3 = e3[0] * e3[0] + e3[1] * e3[1] + e3[2] * e3[2];
+  const double longest2 = std::max(l1, std::max(l2, l3));
+  const double area2 = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+  return !(area2 > 1e-7 * longest2);
+}
+
+/// Watertight ray/triangle test (Woop, Benthin, Wald 2013), one axis
+/// permutation. A ray through a shared edge or vertex of a closed mesh hits
+/// at least one of the triangles: the edge functions u, v, e of a shared edge
+/// are computed identically (negated) from both triangles; those that come
+/// out exactly zero are recomputed in double, where the products of floats
+/// are exact, so that their sign is the exact one (a float rounding never
+/// flips a sign, it only collapses it to zero, which is why a triangle that
+/// already has a strictly negative and a strictly positive edge function is
+/// rejected before the fallback). Degenerate triangles (triangle_is_degenerate)
+/// never hit: in ray space their edge functions are rounding noise that may
+/// share a sign. Returns true with `hit` when ray.tmin < t < tmax.
 template <int KX, int KY, int KZ>
 inline bool intersect_triangle_axes(const Ray& ray, const WatertightRay& w, const Vec3& v0, const Vec3& v1,
                                     const Vec3& v2, float tmax, TriangleHit& hit) {
@@ -73,12 +99,13 @@ inline bool intersect_triangle_axes(const Ray& ray, const WatertightRay& w, cons
   float u = cx * by - cy * bx;
   float v = ax * cy - ay * cx;
   float e = bx * ay - by * ax;
+  if (std::min(u, std::min(v, e)) < 0.0f && std::max(u, std::max(v, e)) > 0.0f) return false;
   if (u == 0.0f || v == 0.0f || e == 0.0f) [[unlikely]] {
     u = static_cast<float>(double(cx) * by - double(cy) * bx);
     v = static_cast<float>(double(ax) * cy - double(ay) * cx);
     e = static_cast<float>(double(bx) * ay - double(by) * ax);
+    if ((u < 0.0f || v < 0.0f || e < 0.0f) && (u > 0.0f || v > 0.0f || e > 0.0f)) return false;
   }
-  if ((u < 0.0f || v < 0.0f || e < 0.0f) && (u > 0.0f || v > 0.0f || e > 0.0f)) return false;
   const float det = u + v + e;
   if (det == 0.0f) return false;
   const float az = w.sz * axis<KZ>(a), bz = w.sz * axis<KZ>(b), cz = w.sz * axis<KZ>(c);
@@ -86,17 +113,16 @@ inline bool intersect_triangle_axes(const Ray& ray, const WatertightRay& w, cons
   const float inv_det = 1.0f / det;
   const float t = t_scaled * inv_det;
   if (!(t > ray.tmin && t < tmax)) return false;
+  if (triangle_is_degenerate(v0, v1, v2)) [[unlikely]] return false;
   hit.t = t;
   hit.u = v * inv_det;  // weight of v1
   hit.v = e * inv_det;  // weight of v2
   return true;
 }
 
-/// Watertight ray/triangle test (Woop et al. 2013). A ray through a shared
-/// edge or vertex of a closed mesh hits at least one of the triangles: edge
-/// functions that come out exactly zero are recomputed in double. Degenerate
-/// (zero-area) triangles never hit. Returns true with `hit` when
-/// ray.tmin < t < tmax. The axis permutation is a compile-time parameter
+/// Watertight ray/triangle test (Woop, Benthin, Wald 2013): see
+/// intersect_triangle_axes. Degenerate (zero-area) triangles never hit.
+/// Returns true with `hit` when ray.tmin < t < tmax. The axis permutation is a compile-time parameter
 /// (one branch per test, the same for the whole ray) so that no vector is
 /// indexed by a run-time axis in the inner loop.
 inline bool intersect_triangle(const Ray& ray, const WatertightRay& w, const Vec3& v0, const Vec3& v1,

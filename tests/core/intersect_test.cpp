@@ -458,6 +458,58 @@ TEST_CASE("intersect: triangles with coincident vertices never hit") {
   CHECK(hits == 0);
 }
 
+// A triangle whose three distinct vertices are collinear: in ray space the
+// projected vertices lie on a line through the origin, so the edge functions
+// u, v, e are rounding noise; before the fix ~15% of the rays aimed at a
+// point of the segment saw them share a sign and reported a hit.
+TEST_CASE("intersect: collinear (zero-area) triangles never hit, even for rays through their segment") {
+  const Vec3 tris[][3] = {{{0, 0, 0}, {1, 1, 1}, {2, 2, 2}},
+                          {{-1, 0.5f, 0}, {1, 0.5f, 0}, {0, 0.5f, 0}},
+                          {{0.1f, 0.2f, 0.3f}, {0.7f, 0.5f, 0.9f}, {1.3f, 0.8f, 1.5f}}};
+  Rng rng(1);
+  std::uniform_real_distribution<float> u01(0, 1);
+  std::normal_distribution<float> n01(0, 1);
+  std::size_t hits = 0;
+  for (const auto& t : tris)
+    for (int i = 0; i < 10000; ++i) {
+      const Vec3 target = t[0] + (t[1] - t[0]) * u01(rng);
+      const Vec3 o = target + Vec3{n01(rng), n01(rng), n01(rng)};
+      hits += triangle(Ray{o, target - o, 0, kInfinity}, t[0], t[1], t[2]);
+    }
+  CHECK(hits == 0);  // before the fix: ~4600 of 30000
+}
+
+TEST_CASE("intersect: the first reproducer of the collinear-triangle bug misses") {
+  const Ray r{{-0.0141240805f, -0.969165742f, 0.071623221f}, {0.148000717f, 1.10304236f, 0.0622534156f}, 0, kInfinity};
+  CHECK_FALSE(triangle(r, {0, 0, 0}, {1, 1, 1}, {2, 2, 2}));
+}
+
+// The double-precision fallback of the watertight test (Woop et al. 2013,
+// section 3): an edge function that rounds to exactly 0 in float is
+// recomputed in double, where the products of floats are exact. Here the ray
+// runs along +z through the origin, so the ray-space coordinates are the
+// vertices' x and y, bit for bit, and the edge b-c passes the origin at a
+// distance of ~1e-14: in float cx*by and cy*bx round to the same value (edge
+// function 0, "on the edge", so the float-only test would report hits on
+// BOTH triangles sharing b-c), in double the origin lies strictly on one side.
+// Without the fallback the first CHECK fails.
+TEST_CASE("intersect: an edge function that rounds to 0 in float is decided in double (one triangle of the pair)") {
+  const float eps = std::ldexp(1.0f, -23);
+  const Vec3 b{1, 1 + eps, 0}, c{-(1 + eps), -(1 + 2 * eps), 0};
+  // Preconditions of the construction (the ray-space edge function of b-c at the origin).
+  volatile float p = c.x * b.y, q = c.y * b.x;
+  REQUIRE(p - q == 0.0f);
+  REQUIRE(double(c.x) * b.y - double(c.y) * b.x < 0.0);  // exact: T1 has the origin outside b-c
+  const Vec3 a{-1, 1, 0};   // T1 = (a, b, c)
+  const Vec3 a2{1, -1, 0};  // T2 = (a2, c, b), the neighbour across b-c
+  const Ray r{{0, 0, -1}, {0, 0, 1}, 0, kInfinity};
+  TriangleHit h1, h2;
+  const bool hit1 = triangle(r, a, b, c, h1), hit2 = triangle(r, a2, c, b, h2);
+  CHECK_FALSE(hit1);  // float-only: hit (u == 0, v > 0, e > 0)
+  CHECK(hit2);        // watertight: the neighbour takes the ray
+  if (hit2) CHECK(h2.t == 1.0f);
+}
+
 // ---------------------------------------------------------------------------
 // Rays and boxes (math.h)
 

@@ -1,0 +1,77 @@
+// Tests of the Embree oracle (embree_scene.h) on its own: it must answer the
+// same questions as the grid (nearest hit and any hit in the open interval
+// (tmin, tmax), database primitive ids), since `raynode validate` and the
+// grid tests take its word when they compare.
+#include <doctest/doctest.h>
+
+#include <cmath>
+
+#include "core/database.h"
+#include "core/direct_view.h"
+#include "core/embree_scene.h"
+#include "core/grid.h"
+#include "core/intersect.h"
+#include "core/scene.h"
+#include "core/traverse.h"
+
+namespace {
+using namespace raynode::core;
+}  // namespace
+
+// Embree's interval [tnear, tfar] is closed: before the fix a ray starting on
+// a surface reported a hit at t = 0 = tmin, and a shadow ray whose tmax equals
+// the hit distance was blocked (the grid reports neither).
+TEST_CASE("embree oracle: hits are reported only in the open interval (tmin, tmax), like the grid") {
+  Scene s;
+  const Vec3 tri[3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  s.add_polygon(tri, 3);
+  s.add_sphere({{5, 0, 0}, 1});
+  const Database db = make_database(s);
+  const EmbreeScene embree(db);
+  Hit h;
+  CHECK_FALSE(embree.intersect_closest({{0.25f, 0.25f, 0}, {0, 0, 1}, 0, kInfinity}, h));
+  CHECK_FALSE(embree.intersect_closest({{0.25f, 0.25f, -2}, {0, 0, 1}, 0, 2.0f}, h));
+  CHECK_FALSE(embree.intersect_closest({{0.25f, 0.25f, -2}, {0, 0, 1}, 2.0f, kInfinity}, h));
+  CHECK_FALSE(embree.intersect_any({{0.25f, 0.25f, -2}, {0, 0, 1}, 0, 2.0f}));
+  CHECK_FALSE(embree.intersect_closest({{5, 0, -5}, {0, 0, 1}, 0, 4.0f}, h));  // sphere at t = 4
+  // Just inside the interval the same hits are reported.
+  REQUIRE(embree.intersect_closest({{0.25f, 0.25f, -2}, {0, 0, 1}, 0, std::nextafter(2.0f, 3.0f)}, h));
+  CHECK(h.t == 2.0f);
+  CHECK(h.primitive == 0);
+  CHECK(embree.intersect_any({{0.25f, 0.25f, -2}, {0, 0, 1}, std::nextafter(2.0f, 0.0f), 3.0f}));
+  REQUIRE(embree.intersect_closest({{5, 0, -5}, {0, 0, 1}, 0, 4.5f}, h));
+  CHECK(h.primitive == 1);
+}
+
+// Cones are Embree user geometry calling intersect_cone: the interval handed
+// to it must be the query's (tmin, tmax), neither wider nor narrower.
+TEST_CASE("embree oracle: cone hits are reported only in (tmin, tmax), at the grid's distance") {
+  Scene s;
+  s.add_cone({{0, 0, -1}, 1, {0, 0, 1}, 1});  // open cylinder of radius 1 along z
+  const Database db = make_database(s);
+  const Grid grid = build_grid(db);
+  const DirectView view(db, grid);
+  const EmbreeScene embree(db);
+  TraversalScratch scratch;
+  const Ray full{{-3, 0.1f, 0.2f}, {1, 0.01f, 0.02f}, 0, kInfinity};
+  Hit g, e;
+  REQUIRE(intersect_closest(view, full, g, scratch));
+  REQUIRE(embree.intersect_closest(full, e));
+  CHECK(e.t == g.t);
+  CHECK(e.primitive == 0);
+  // tmax exactly at the hit: no hit from either; one ulp beyond: both hit.
+  const Ray upto{full.origin, full.direction, 0, g.t};
+  CHECK_FALSE(intersect_closest(view, upto, g, scratch));
+  CHECK_FALSE(embree.intersect_closest(upto, e));
+  CHECK_FALSE(embree.intersect_any(upto));
+  const Ray past{full.origin, full.direction, 0, std::nextafter(upto.tmax, kInfinity)};
+  CHECK(embree.intersect_any(past));
+  REQUIRE(embree.intersect_closest(past, e));
+  CHECK(e.t == upto.tmax);
+  // tmin exactly at the near hit: the far wall is the answer.
+  const Ray from{full.origin, full.direction, upto.tmax, kInfinity};
+  REQUIRE(intersect_closest(view, from, g, scratch));
+  REQUIRE(embree.intersect_closest(from, e));
+  CHECK(g.t > upto.tmax);
+  CHECK(e.t == g.t);
+}
