@@ -229,8 +229,8 @@ void register_render_command(CLI::App& app) {
       ->check(CLI::Range(1, 4096))
       ->capture_default_str();
   c->add_option("--accel", o->accel,
-                "Ray queries through the uniform grid (3D-DDA, the paper's tracer) or Embree 3 (same shading; "
-                "bit-identical wherever both hit the same primitive)")
+                "Ray queries through the uniform grid (3D-DDA, the paper's tracer) or Embree 3 (same shading; pixels "
+                "differ only where the two pick different primitives)")
       ->check(CLI::IsMember({"grid", "embree"}))
       ->capture_default_str();
   c->add_option("--width", o->width, "Image width in pixels (default: the scene's view)")->check(CLI::Range(1, 16384));
