@@ -1,33 +1,61 @@
-// DirectView: the database view over plain in-memory arrays (Database +
-// Grid). Used by sequential, shared and replicated modes (DESIGN.md, "One
-// tracer, several data views"). Cheap to copy; refers to, does not own,
-// the database and grid, which must outlive it.
+// DirectView: the database view over plain in-memory arrays. Used by
+// sequential, shared and replicated modes (DESIGN.md, "One tracer, several
+// data views"): the host's Database + Grid, or a node's own copy of the
+// same arrays in its arena (DatabaseArrays). Cheap to copy; refers to, does
+// not own, the arrays, which must outlive it.
 #pragma once
 
 #include <cstdint>
+#include <span>
 
 #include "core/database.h"
 #include "core/grid.h"
 
 namespace raynode::core {
 
+/// The per-object arrays a tracer reads, wherever they live (the host's
+/// vectors or a node's arena): primitives, `pp` vertex normals, materials,
+/// and the grid's CSR cell lists with its O(1) description.
+struct DatabaseArrays {
+  std::span<const Primitive> primitives;
+  std::span<const TriangleNormals> vertex_normals;
+  std::span<const Material> materials;
+  std::span<const std::uint32_t> cell_start;       ///< cell_count()+1 offsets
+  std::span<const std::uint32_t> cell_primitives;  ///< primitive ids
+  GridInfo grid;
+
+  /// The arrays of a host database and grid.
+  static DatabaseArrays of(const Database& db, const Grid& grid) {
+    return {db.primitives, db.vertex_normals, db.materials, grid.cell_start, grid.cell_primitives, grid.info};
+  }
+  /// Bytes of all arrays (what a node needs to hold a full copy).
+  std::size_t bytes() const {
+    return primitives.size_bytes() + vertex_normals.size_bytes() + materials.size_bytes() + cell_start.size_bytes() +
+           cell_primitives.size_bytes();
+  }
+};
+
 class DirectView {
  public:
-  DirectView(const Database& db, const Grid& grid) : db_(&db), grid_(&grid) {}
+  DirectView(const Database& db, const Grid& grid) : a_(DatabaseArrays::of(db, grid)), db_(&db) {}
+  explicit DirectView(const DatabaseArrays& arrays) : a_(arrays) {}
 
-  const GridInfo& grid_info() const { return grid_->info; }
+  const GridInfo& grid_info() const { return a_.grid; }
   template <class F>
   void for_each_in_cell(std::uint32_t cell, F&& f) const {
-    const std::uint32_t* p = grid_->cell_primitives.data();
-    for (std::uint32_t i = grid_->cell_start[cell], e = grid_->cell_start[cell + 1]; i < e; ++i) f(p[i]);
+    const std::uint32_t* p = a_.cell_primitives.data();
+    for (std::uint32_t i = a_.cell_start[cell], e = a_.cell_start[cell + 1]; i < e; ++i) f(p[i]);
   }
-  const Primitive& primitive(std::uint32_t id) const { return db_->primitives[id]; }
-  const Material& material(std::uint32_t id) const { return db_->materials[id]; }
+  const Primitive& primitive(std::uint32_t id) const { return a_.primitives[id]; }
+  const Material& material(std::uint32_t id) const { return a_.materials[id]; }
+  const TriangleNormals& vertex_normals(std::uint32_t id) const { return a_.vertex_normals[id]; }
+  const DatabaseArrays& arrays() const { return a_; }
+  /// The host database it was made from; only for views made from one.
   const Database& database() const { return *db_; }
 
  private:
-  const Database* db_;
-  const Grid* grid_;
+  DatabaseArrays a_;
+  const Database* db_ = nullptr;
 };
 
 }  // namespace raynode::core

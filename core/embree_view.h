@@ -43,6 +43,7 @@ class EmbreeView {
 
   const Primitive& primitive(std::uint32_t id) const { return db_->primitives[id]; }
   const Material& material(std::uint32_t id) const { return db_->materials[id]; }
+  const TriangleNormals& vertex_normals(std::uint32_t id) const { return db_->vertex_normals[id]; }
   const Database& database() const { return *db_; }
   const EmbreeScene& scene() const { return *scene_; }
 

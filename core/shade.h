@@ -39,6 +39,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <span>
 
 #include "core/database.h"
 #include "core/intersect.h"
@@ -102,29 +103,41 @@ struct RenderStats {
   }
 };
 
-/// What shading needs besides the view's primitives: materials, lights,
-/// `pp` vertex normals, background, intensities, recursion limits. Refers
-/// to (does not own) the database, which must outlive it. Read-only, so it
-/// may be shared by any number of threads.
+/// What shading needs besides the database view: the O(1) scene metadata
+/// every node replicates (lights, background), intensities and recursion
+/// limits. Materials and `pp` vertex normals are per-object data and come
+/// through the view (view.material(id), view.vertex_normals(id)), so a paged
+/// or regional view can hold them where its primitives are. `lights` refers
+/// to (does not own) an array that must outlive the context. Read-only, so
+/// it may be shared by any number of threads.
 struct ShadingContext {
-  const Database* db = nullptr;
+  std::span<const Light> lights;
+  Vec3 background;
   float light_intensity = 0.5f;    ///< per light, sqrt(L)/(2L)
   float ambient_intensity = 0.5f;  ///< sqrt(L)/(2L), 1/2 with no lights
   int max_depth = 5;               ///< ray levels, eye ray = 1
   float min_weight = 0.0f;         ///< Hall & Greenberg pruning threshold (0 = off)
 };
 
-/// Builds the context for `db` with SPD's intensities. max_depth >= 1.
-inline ShadingContext make_shading_context(const Database& db, int max_depth = 5, float min_weight = 0.0f) {
+/// Builds the context for these lights and background with SPD's
+/// intensities. max_depth >= 1.
+inline ShadingContext make_shading_context(std::span<const Light> lights, const Vec3& background, int max_depth = 5,
+                                           float min_weight = 0.0f) {
   ShadingContext c;
-  c.db = &db;
-  const std::size_t n = db.lights.size();
+  c.lights = lights;
+  c.background = background;
+  const std::size_t n = lights.size();
   const float i = n == 0 ? 0.5f : float(std::sqrt(double(n)) / (2.0 * double(n)));
   c.light_intensity = i;
   c.ambient_intensity = i;
   c.max_depth = max_depth;
   c.min_weight = min_weight;
   return c;
+}
+
+/// The context for `db`'s lights and background (db must outlive it).
+inline ShadingContext make_shading_context(const Database& db, int max_depth = 5, float min_weight = 0.0f) {
+  return make_shading_context(std::span<const Light>(db.lights), db.background, max_depth, min_weight);
 }
 
 /// Offset of secondary-ray origins from a hit at `p`, in world units.
@@ -154,8 +167,9 @@ struct SurfaceFrame {
 };
 
 /// Frame of the closest hit `hit` of `ray` (hit.found()). `prim` is the hit
-/// primitive as the view returned it; `pp` vertex normals come from `db`.
-inline SurfaceFrame surface_frame(const Database& db, const Primitive& prim, const Ray& ray, const Hit& hit) {
+/// primitive as the view returned it; `pp` vertex normals come from the view.
+template <class View>
+SurfaceFrame surface_frame(const View& view, const Primitive& prim, const Ray& ray, const Hit& hit) {
   SurfaceFrame f;
   f.d = normalize(ray.direction);
   f.p = ray.at(hit.t);
@@ -168,7 +182,7 @@ inline SurfaceFrame surface_frame(const Database& db, const Primitive& prim, con
   // Shading normal, flipped together with the geometric one.
   f.ns = f.nf;
   if (prim.kind == PrimitiveKind::kTriangle && prim.normals != kNoNormals) {
-    const TriangleNormals& vn = db.vertex_normals[prim.normals];
+    const TriangleNormals& vn = view.vertex_normals(prim.normals);
     const Vec3 n = vn.n[0] * (1.0f - hit.u - hit.v) + vn.n[1] * hit.u + vn.n[2] * hit.v;
     const float len = length(n);
     if (len > 0.0f && std::isfinite(len)) f.ns = f.front ? n * (1.0f / len) : n * (-1.0f / len);
@@ -199,16 +213,15 @@ struct ShadingScratch {
 template <class View>
 Vec3 trace_ray(const View& view, const ShadingContext& ctx, const Ray& ray, int depth, float weight,
                ShadingScratch& scratch, FirstHit* first_hit = nullptr) {
-  const Database& db = *ctx.db;
   RenderStats& st = scratch.stats;
   Hit hit;
   if (!intersect_closest(view, ray, hit, scratch.traversal)) {
     if (first_hit) *first_hit = FirstHit{};
-    return db.background;
+    return ctx.background;
   }
   const Primitive& prim = view.primitive(hit.primitive);
-  const Material& m = db.materials[prim.material];
-  const SurfaceFrame f = surface_frame(db, prim, ray, hit);
+  const Material& m = view.material(prim.material);
+  const SurfaceFrame f = surface_frame(view, prim, ray, hit);
   const Vec3& d = f.d;
   const Vec3& p = f.p;
   const Vec3& nf = f.nf;
@@ -223,7 +236,7 @@ Vec3 trace_ray(const View& view, const ShadingContext& ctx, const Ray& ray, int 
   Vec3 color = m.color * (m.kd * ctx.ambient_intensity);
 
   const bool highlight = m.ks > 0.0f && m.shine < kNoHighlightShine;
-  for (const Light& light : db.lights) {
+  for (const Light& light : ctx.lights) {
     const Vec3 to_light = light.position - above;
     const float dist = length(to_light);
     if (!(dist > 0.0f)) continue;

@@ -9,6 +9,9 @@
 //   template <class F> void for_each_in_cell(std::uint32_t cell, F&& f) const;
 //       // calls f(std::uint32_t primitive_id) for each listed primitive
 //   const Primitive& primitive(std::uint32_t id) const;
+// and, for shading (shade.h), per-object data beside the primitives:
+//   const Material& material(std::uint32_t id) const;
+//   const TriangleNormals& vertex_normals(std::uint32_t id) const;
 // DirectView (direct_view.h) is the plain-array one.
 #pragma once
 
@@ -49,17 +52,19 @@ struct TraversalStats {
   }
 };
 
-/// Per-ray mailbox (hashed, after Wald's hashed mailboxing, 2004): a small
-/// open-addressing set of the primitive ids already tested by the current
-/// ray, stamped with a ray counter so that starting a ray costs O(1). Lives
-/// in the thread's (or node's) scratch, never in the shared database, so it
-/// is safe for shared-memory threads and paged databases alike. A ray that
-/// tests more than kProbe-collision-chains' worth of primitives may retest
-/// one (slower, never wrong).
+/// Per-ray mailbox (after Wald's hashed mailboxing, 2004): a direct-mapped
+/// table of the primitive ids already tested by the current ray, indexed by
+/// the id's low bits and stamped with a ray counter so that starting a ray
+/// costs O(1). Lives in the thread's (or node's) scratch, never in the shared
+/// database, so it is safe for shared-memory threads and paged databases
+/// alike. Two ids of one ray that share a slot evict each other: the evicted
+/// one may be tested again (slower, never wrong: a retest gives the same
+/// answer and a hit only replaces a strictly farther one). Low bits, not a
+/// hash: the primitives of a cell are mostly neighbours in the database
+/// (one polygon's triangles, one mesh row), which then never collide.
 class Mailbox {
  public:
-  static constexpr std::uint32_t kSlots = 256;  // power of two
-  static constexpr std::uint32_t kProbe = 8;
+  static constexpr std::uint32_t kSlots = 512;  // power of two
 
   Mailbox() { std::memset(slots_, 0, sizeof(slots_)); }
 
@@ -73,16 +78,9 @@ class Mailbox {
   /// Returns true if `id` was already tested by this ray; otherwise records it.
   bool seen_or_insert(std::uint32_t id) {
     const std::uint64_t key = (std::uint64_t(stamp_) << 32) | id;
-    std::uint32_t h = (id * 0x9E3779B1u) >> 24;  // top 8 bits: kSlots = 256
-    for (std::uint32_t i = 0; i < kProbe; ++i, h = (h + 1) & (kSlots - 1)) {
-      const std::uint64_t s = slots_[h];
-      if (s == key) return true;
-      if ((s >> 32) != stamp_) {
-        slots_[h] = key;
-        return false;
-      }
-    }
-    slots_[(id * 0x9E3779B1u) >> 24] = key;  // chain full: evict its head
+    std::uint64_t& slot = slots_[id & (kSlots - 1)];
+    if (slot == key) return true;
+    slot = key;
     return false;
   }
 
@@ -97,89 +95,180 @@ struct TraversalScratch {
   TraversalStats stats;
 };
 
-/// Tests one primitive; on a hit closer than hit.t, updates `hit`.
-[[gnu::always_inline]] inline bool intersect_primitive(const Primitive& p, std::uint32_t id, const Ray& ray, const WatertightRay& w,
-                                Hit& hit, TraversalStats& stats) {
-  switch (p.kind) {
-    case PrimitiveKind::kTriangle: {
-      ++stats.triangle_tests;
-      TriangleHit th;
-      if (intersect_triangle(ray, w, p.vertex(0), p.vertex(1), p.vertex(2), hit.t, th)) {
-        hit.t = th.t;
-        hit.u = th.u;
-        hit.v = th.v;
-        hit.primitive = id;
-        return true;
-      }
-      return false;
+namespace detail {
+
+/// intersect_primitive with the triangle test's axis permutation fixed at
+/// compile time (KX, KY, KZ as in intersect_triangle_axes), so that a whole
+/// traversal dispatches on the permutation once per ray.
+template <int KX, int KY, int KZ>
+[[gnu::always_inline]] inline bool intersect_primitive_axes(const Primitive& p, std::uint32_t id, const Ray& ray,
+                                                            const WatertightRay& w, Hit& hit, TraversalStats& stats) {
+  if (p.kind == PrimitiveKind::kTriangle) [[likely]] {
+    ++stats.triangle_tests;
+    TriangleHit th;
+    if (intersect_triangle_axes<KX, KY, KZ>(ray, w, p.vertex(0), p.vertex(1), p.vertex(2), hit.t, th)) {
+      hit.t = th.t;
+      hit.u = th.u;
+      hit.v = th.v;
+      hit.primitive = id;
+      return true;
     }
-    case PrimitiveKind::kSphere: {
-      ++stats.sphere_tests;
-      float t;
-      if (intersect_sphere(ray, p.center(), p.radius(), hit.t, t)) {
-        hit = Hit{t, id, 0, 0};
-        return true;
-      }
-      return false;
+    return false;
+  }
+  if (p.kind == PrimitiveKind::kSphere) {
+    ++stats.sphere_tests;
+    float t;
+    if (intersect_sphere(ray, p.center(), p.radius(), hit.t, t)) {
+      hit = Hit{t, id, 0, 0};
+      return true;
     }
-    case PrimitiveKind::kCone: {
-      ++stats.cone_tests;
-      float t;
-      if (intersect_cone(ray, p.cone_base(), p.cone_base_radius(), p.cone_apex(), p.cone_apex_radius(), hit.t,
-                         t)) {
-        hit = Hit{t, id, 0, 0};
-        return true;
-      }
-      return false;
-    }
+    return false;
+  }
+  ++stats.cone_tests;
+  float t;
+  if (intersect_cone(ray, p.cone_base(), p.cone_base_radius(), p.cone_apex(), p.cone_apex_radius(), hit.t, t)) {
+    hit = Hit{t, id, 0, 0};
+    return true;
   }
   return false;
+}
+
+/// Calls f.template operator()<KX, KY, KZ>() for the ray's axis permutation
+/// (WatertightRay::permutation): one run-time branch per ray.
+template <class F>
+[[gnu::always_inline]] inline decltype(auto) with_axes(const WatertightRay& w, F&& f) {
+  switch (w.permutation) {
+    case 0: return f.template operator()<1, 2, 0>();
+    case 1: return f.template operator()<2, 1, 0>();
+    case 2: return f.template operator()<2, 0, 1>();
+    case 3: return f.template operator()<0, 2, 1>();
+    case 4: return f.template operator()<0, 1, 2>();
+    default: return f.template operator()<1, 0, 2>();
+  }
+}
+
+}  // namespace detail
+
+/// Tests one primitive; on a hit closer than hit.t, updates `hit`.
+inline bool intersect_primitive(const Primitive& p, std::uint32_t id, const Ray& ray, const WatertightRay& w, Hit& hit,
+                                TraversalStats& stats) {
+  return detail::with_axes(w, [&]<int KX, int KY, int KZ>() {
+    return detail::intersect_primitive_axes<KX, KY, KZ>(p, id, ray, w, hit, stats);
+  });
 }
 
 /// Walks the grid cells pierced by `ray` in order, calling visit(cell, t_exit)
 /// for each; stops when visit returns true. t_exit is the ray parameter where
 /// the ray leaves the cell. Rays with zero direction components, and rays
 /// starting inside, outside or on the boundary of the grid are handled.
-/// Returns false if the ray misses the grid. Precondition: is_valid_ray(ray).
+/// Precondition: is_valid_ray(ray).
+///
+/// 3D-DDA (Amanatides & Woo 1987). The parameter of the next cell boundary
+/// on each axis is recomputed from the boundary's grid index, never
+/// accumulated (t += delta drifts), so every view and every thread walks the
+/// same cells for the same ray. Ties between axes go to the lowest of
+/// (x < y ? (x < z ? x : z) : (y < z ? y : z)), resolved branch-free by a
+/// table; the cell index is kept linear (one add per step).
 template <class Visit>
 inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
-  const Vec3 inv{1.0f / ray.direction.x, 1.0f / ray.direction.y, 1.0f / ray.direction.z};
+  const Vec3 inv_v{1.0f / ray.direction.x, 1.0f / ray.direction.y, 1.0f / ray.direction.z};
   float t0, t1;
-  if (!intersect_bounds(g.bounds, ray, inv, t0, t1)) return;
+  if (!intersect_bounds(g.bounds, ray, inv_v, t0, t1)) return;
   const Vec3 p = ray.at(t0);
-  int cell[3], step[3], stop[3];
+  const float org[3] = {ray.origin.x, ray.origin.y, ray.origin.z};
+  const float dir[3] = {ray.direction.x, ray.direction.y, ray.direction.z};
+  const float inv[3] = {inv_v.x, inv_v.y, inv_v.z};
+  const float lower[3] = {g.bounds.lower.x, g.bounds.lower.y, g.bounds.lower.z};
+  const float size[3] = {g.cell_size.x, g.cell_size.y, g.cell_size.z};
+  const float pos[3] = {p.x, p.y, p.z};
+  const float inv_size[3] = {g.inv_cell_size.x, g.inv_cell_size.y, g.inv_cell_size.z};
+  const std::int32_t stride[3] = {1, g.res[0], g.res[0] * g.res[1]};
+  int boundary[3], step[3], left[3];  // next boundary index, +-1/0, steps left before leaving
+  std::int32_t delta[3];              // linear index change per step
   float next_t[3];
+  std::int32_t cell = 0;
   for (int a = 0; a < 3; ++a) {
-    int c = static_cast<int>(std::floor((p[a] - g.bounds.lower[a]) * g.inv_cell_size[a]));
+    int c = static_cast<int>(std::floor((pos[a] - lower[a]) * inv_size[a]));
     c = c < 0 ? 0 : (c >= g.res[a] ? g.res[a] - 1 : c);
-    cell[a] = c;
-    const float d = ray.direction[a];
-    if (d > 0.0f) {
+    cell += c * stride[a];
+    if (dir[a] > 0.0f) {
       step[a] = 1;
-      stop[a] = g.res[a];
-      next_t[a] = (g.bounds.lower[a] + float(c + 1) * g.cell_size[a] - ray.origin[a]) * inv[a];
-    } else if (d < 0.0f) {
+      boundary[a] = c + 1;
+      left[a] = g.res[a] - 1 - c;
+      next_t[a] = (lower[a] + float(c + 1) * size[a] - org[a]) * inv[a];
+    } else if (dir[a] < 0.0f) {
       step[a] = -1;
-      stop[a] = -1;
-      next_t[a] = (g.bounds.lower[a] + float(c) * g.cell_size[a] - ray.origin[a]) * inv[a];
+      boundary[a] = c;
+      left[a] = c;
+      next_t[a] = (lower[a] + float(c) * size[a] - org[a]) * inv[a];
     } else {
       step[a] = 0;
-      stop[a] = -2;
+      boundary[a] = 0;
+      left[a] = -1;  // never reached: next_t stays +inf
       next_t[a] = kInfinity;
     }
+    delta[a] = step[a] * stride[a];
   }
+  // Axis of the first boundary, from the bits (x<y, x<z, y<z).
+  static constexpr int kFirstAxis[8] = {2, 1, 2, 1, 2, 2, 0, 0};
   for (;;) {
-    // Axis whose boundary comes first.
-    const int axis = (next_t[0] < next_t[1]) ? (next_t[0] < next_t[2] ? 0 : 2) : (next_t[1] < next_t[2] ? 1 : 2);
-    const float t_exit = next_t[axis] < t1 ? next_t[axis] : t1;
-    if (visit(g.cell_index(cell[0], cell[1], cell[2]), t_exit)) return;
-    if (next_t[axis] >= t1) return;
-    cell[axis] += step[axis];
-    if (cell[axis] == stop[axis]) return;
-    const int boundary = step[axis] > 0 ? cell[axis] + 1 : cell[axis];
-    next_t[axis] = (g.bounds.lower[axis] + float(boundary) * g.cell_size[axis] - ray.origin[axis]) * inv[axis];
+    const int axis = kFirstAxis[(int(next_t[0] < next_t[1]) << 2) | (int(next_t[0] < next_t[2]) << 1) |
+                                int(next_t[1] < next_t[2])];
+    const float tn = next_t[axis];
+    if (visit(std::uint32_t(cell), tn < t1 ? tn : t1)) return;
+    if (tn >= t1 || left[axis] == 0) return;
+    --left[axis];
+    cell += delta[axis];
+    boundary[axis] += step[axis];
+    next_t[axis] = (lower[axis] + float(boundary[axis]) * size[axis] - org[axis]) * inv[axis];
   }
 }
+
+namespace detail {
+
+template <int KX, int KY, int KZ, class View>
+inline bool intersect_closest_axes(const View& view, const Ray& ray, const WatertightRay& w, Hit& hit,
+                                   TraversalScratch& scratch) {
+  TraversalStats& stats = scratch.stats;
+  Mailbox& mailbox = scratch.mailbox;
+  bool found = false;
+  walk_grid(view.grid_info(), ray, [&](std::uint32_t cell, float t_exit) {
+    ++stats.cells_visited;
+    view.for_each_in_cell(cell, [&](std::uint32_t id) {
+      if (mailbox.seen_or_insert(id)) {
+        ++stats.mailbox_skips;
+        return;
+      }
+      found |= intersect_primitive_axes<KX, KY, KZ>(view.primitive(id), id, ray, w, hit, stats);
+    });
+    return found && hit.t <= t_exit;
+  });
+  return found;
+}
+
+template <int KX, int KY, int KZ, class View>
+inline bool intersect_any_axes(const View& view, const Ray& ray, const WatertightRay& w, TraversalScratch& scratch) {
+  TraversalStats& stats = scratch.stats;
+  Mailbox& mailbox = scratch.mailbox;
+  bool found = false;
+  Hit hit;
+  hit.t = ray.tmax;
+  walk_grid(view.grid_info(), ray, [&](std::uint32_t cell, float) {
+    ++stats.cells_visited;
+    view.for_each_in_cell(cell, [&](std::uint32_t id) {
+      if (found) return;
+      if (mailbox.seen_or_insert(id)) {
+        ++stats.mailbox_skips;
+        return;
+      }
+      found = intersect_primitive_axes<KX, KY, KZ>(view.primitive(id), id, ray, w, hit, stats);
+    });
+    return found;
+  });
+  return found;
+}
+
+}  // namespace detail
 
 /// Nearest hit of `ray` in (ray.tmin, ray.tmax). Each primitive is tested at
 /// most once per ray (mailbox); the walk stops as soon as the best hit lies
@@ -191,19 +280,9 @@ inline bool intersect_closest(const View& view, const Ray& ray, Hit& hit, Traver
   hit.t = ray.tmax;
   const WatertightRay w(ray.direction);
   scratch.mailbox.next_ray();
-  TraversalStats& stats = scratch.stats;
-  ++stats.rays;
-  bool found = false;
-  walk_grid(view.grid_info(), ray, [&](std::uint32_t cell, float t_exit) {
-    ++stats.cells_visited;
-    view.for_each_in_cell(cell, [&](std::uint32_t id) {
-      if (scratch.mailbox.seen_or_insert(id)) {
-        ++stats.mailbox_skips;
-        return;
-      }
-      found |= intersect_primitive(view.primitive(id), id, ray, w, hit, stats);
-    });
-    return found && hit.t <= t_exit;
+  ++scratch.stats.rays;
+  const bool found = detail::with_axes(w, [&]<int KX, int KY, int KZ>() {
+    return detail::intersect_closest_axes<KX, KY, KZ>(view, ray, w, hit, scratch);
   });
   if (!found) hit = Hit{};
   return found;
@@ -215,24 +294,10 @@ template <class View>
 inline bool intersect_any(const View& view, const Ray& ray, TraversalScratch& scratch) {
   const WatertightRay w(ray.direction);
   scratch.mailbox.next_ray();
-  TraversalStats& stats = scratch.stats;
-  ++stats.rays;
-  bool found = false;
-  Hit hit;
-  hit.t = ray.tmax;
-  walk_grid(view.grid_info(), ray, [&](std::uint32_t cell, float) {
-    ++stats.cells_visited;
-    view.for_each_in_cell(cell, [&](std::uint32_t id) {
-      if (found) return;
-      if (scratch.mailbox.seen_or_insert(id)) {
-        ++stats.mailbox_skips;
-        return;
-      }
-      found = intersect_primitive(view.primitive(id), id, ray, w, hit, stats);
-    });
-    return found;
+  ++scratch.stats.rays;
+  return detail::with_axes(w, [&]<int KX, int KY, int KZ>() {
+    return detail::intersect_any_axes<KX, KY, KZ>(view, ray, w, scratch);
   });
-  return found;
 }
 
 }  // namespace raynode::core
