@@ -89,7 +89,7 @@ inline bool triangle_is_degenerate(const Vec3& v0, const Vec3& v1, const Vec3& v
 /// never hit: in ray space their edge functions are rounding noise that may
 /// share a sign. Returns true with `hit` when ray.tmin < t < tmax.
 template <int KX, int KY, int KZ>
-inline bool intersect_triangle_axes(const Ray& ray, const WatertightRay& w, const Vec3& v0, const Vec3& v1,
+[[gnu::always_inline]] inline bool intersect_triangle_axes(const Ray& ray, const WatertightRay& w, const Vec3& v0, const Vec3& v1,
                                     const Vec3& v2, float tmax, TriangleHit& hit) {
   using detail::axis;
   const Vec3 a = v0 - ray.origin, b = v1 - ray.origin, c = v2 - ray.origin;

@@ -76,13 +76,22 @@ class Mailbox {
     }
   }
   /// Returns true if `id` was already tested by this ray; otherwise records it.
-  bool seen_or_insert(std::uint32_t id) {
-    const std::uint64_t key = (std::uint64_t(stamp_) << 32) | id;
-    std::uint64_t& slot = slots_[id & (kSlots - 1)];
-    if (slot == key) return true;
-    slot = key;
-    return false;
-  }
+  bool seen_or_insert(std::uint32_t id) { return probe().seen_or_insert(id); }
+
+  /// The current ray's view of the table: the stamp held in a register.
+  /// Valid until the next next_ray().
+  struct Probe {
+    std::uint64_t* slots;
+    std::uint64_t stamp;  ///< stamp << 32
+    bool seen_or_insert(std::uint32_t id) {
+      const std::uint64_t key = stamp | id;
+      std::uint64_t& slot = slots[id & (kSlots - 1)];
+      if (slot == key) return true;
+      slot = key;
+      return false;
+    }
+  };
+  Probe probe() { return {slots_, std::uint64_t(stamp_) << 32}; }
 
  private:
   std::uint64_t slots_[kSlots];
@@ -97,40 +106,40 @@ struct TraversalScratch {
 
 namespace detail {
 
+/// Sphere or cone test (not a triangle); on a hit closer than hit.t,
+/// updates `hit`. Kept out of line so that the per-primitive loop, which
+/// inlines only the triangle test, stays small.
+[[gnu::noinline]] inline bool intersect_curved(const Primitive& p, std::uint32_t id, const Ray& ray, Hit& hit,
+                                               TraversalStats& stats) {
+  float t;
+  if (p.kind == PrimitiveKind::kSphere) {
+    ++stats.sphere_tests;
+    if (!intersect_sphere(ray, p.center(), p.radius(), hit.t, t)) return false;
+  } else {
+    ++stats.cone_tests;
+    if (!intersect_cone(ray, p.cone_base(), p.cone_base_radius(), p.cone_apex(), p.cone_apex_radius(), hit.t, t))
+      return false;
+  }
+  hit = Hit{t, id, 0, 0};
+  return true;
+}
+
 /// intersect_primitive with the triangle test's axis permutation fixed at
 /// compile time (KX, KY, KZ as in intersect_triangle_axes), so that a whole
 /// traversal dispatches on the permutation once per ray.
 template <int KX, int KY, int KZ>
 [[gnu::always_inline]] inline bool intersect_primitive_axes(const Primitive& p, std::uint32_t id, const Ray& ray,
                                                             const WatertightRay& w, Hit& hit, TraversalStats& stats) {
-  if (p.kind == PrimitiveKind::kTriangle) [[likely]] {
-    ++stats.triangle_tests;
-    TriangleHit th;
-    if (intersect_triangle_axes<KX, KY, KZ>(ray, w, p.vertex(0), p.vertex(1), p.vertex(2), hit.t, th)) {
-      hit.t = th.t;
-      hit.u = th.u;
-      hit.v = th.v;
-      hit.primitive = id;
-      return true;
-    }
-    return false;
-  }
-  if (p.kind == PrimitiveKind::kSphere) {
-    ++stats.sphere_tests;
-    float t;
-    if (intersect_sphere(ray, p.center(), p.radius(), hit.t, t)) {
-      hit = Hit{t, id, 0, 0};
-      return true;
-    }
-    return false;
-  }
-  ++stats.cone_tests;
-  float t;
-  if (intersect_cone(ray, p.cone_base(), p.cone_base_radius(), p.cone_apex(), p.cone_apex_radius(), hit.t, t)) {
-    hit = Hit{t, id, 0, 0};
-    return true;
-  }
-  return false;
+  if (p.kind != PrimitiveKind::kTriangle) [[unlikely]]
+    return intersect_curved(p, id, ray, hit, stats);
+  ++stats.triangle_tests;
+  TriangleHit th;
+  if (!intersect_triangle_axes<KX, KY, KZ>(ray, w, p.vertex(0), p.vertex(1), p.vertex(2), hit.t, th)) return false;
+  hit.t = th.t;
+  hit.u = th.u;
+  hit.v = th.v;
+  hit.primitive = id;
+  return true;
 }
 
 /// Calls f.template operator()<KX, KY, KZ>() for the ray's axis permutation
@@ -212,8 +221,7 @@ inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
   // Axis of the first boundary, from the bits (x<y, x<z, y<z).
   static constexpr int kFirstAxis[8] = {2, 1, 2, 1, 2, 2, 0, 0};
   for (;;) {
-    const int axis = kFirstAxis[(int(next_t[0] < next_t[1]) << 2) | (int(next_t[0] < next_t[2]) << 1) |
-                                int(next_t[1] < next_t[2])];
+    const int axis = (next_t[0] < next_t[1]) ? (next_t[0] < next_t[2] ? 0 : 2) : (next_t[1] < next_t[2] ? 1 : 2);
     const float tn = next_t[axis];
     if (visit(std::uint32_t(cell), tn < t1 ? tn : t1)) return;
     if (tn >= t1 || left[axis] == 0) return;
@@ -226,11 +234,15 @@ inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
 
 namespace detail {
 
+// The loops below keep the hit, the counters and the mailbox's stamp in
+// locals (written back once per ray): a store through `scratch` could alias
+// them and would force a reload per primitive.
 template <int KX, int KY, int KZ, class View>
-inline bool intersect_closest_axes(const View& view, const Ray& ray, const WatertightRay& w, Hit& hit,
+[[gnu::flatten]] inline bool intersect_closest_axes(const View& view, const Ray& ray, const WatertightRay& w, Hit& hit_out,
                                    TraversalScratch& scratch) {
-  TraversalStats& stats = scratch.stats;
-  Mailbox& mailbox = scratch.mailbox;
+  TraversalStats stats;
+  Mailbox::Probe mailbox = scratch.mailbox.probe();
+  Hit hit = hit_out;
   bool found = false;
   walk_grid(view.grid_info(), ray, [&](std::uint32_t cell, float t_exit) {
     ++stats.cells_visited;
@@ -243,13 +255,15 @@ inline bool intersect_closest_axes(const View& view, const Ray& ray, const Water
     });
     return found && hit.t <= t_exit;
   });
+  scratch.stats += stats;
+  hit_out = hit;
   return found;
 }
 
 template <int KX, int KY, int KZ, class View>
-inline bool intersect_any_axes(const View& view, const Ray& ray, const WatertightRay& w, TraversalScratch& scratch) {
-  TraversalStats& stats = scratch.stats;
-  Mailbox& mailbox = scratch.mailbox;
+[[gnu::flatten]] inline bool intersect_any_axes(const View& view, const Ray& ray, const WatertightRay& w, TraversalScratch& scratch) {
+  TraversalStats stats;
+  Mailbox::Probe mailbox = scratch.mailbox.probe();
   bool found = false;
   Hit hit;
   hit.t = ray.tmax;
@@ -265,6 +279,7 @@ inline bool intersect_any_axes(const View& view, const Ray& ray, const Watertigh
     });
     return found;
   });
+  scratch.stats += stats;
   return found;
 }
 
