@@ -11,6 +11,10 @@
 #include <cmath>
 #include <cstdint>
 
+#if defined(__SSE2__)
+#include <immintrin.h>
+#endif
+
 #include "core/database.h"
 #include "core/math.h"
 
@@ -134,6 +138,78 @@ inline bool intersect_triangle(const Ray& ray, const WatertightRay& w, const Vec
     case 3: return intersect_triangle_axes<0, 2, 1>(ray, w, v0, v1, v2, tmax, hit);
     case 4: return intersect_triangle_axes<0, 1, 2>(ray, w, v0, v1, v2, tmax, hit);
     default: return intersect_triangle_axes<1, 0, 2>(ray, w, v0, v1, v2, tmax, hit);
+  }
+}
+
+/// The watertight triangle test of intersect_triangle_axes on a triangle
+/// record's vertex array `v` (v0.xyz v1.xyz v2.xyz, as in Primitive::data;
+/// 12 floats must be readable, the last 3 are ignored), with the shear and
+/// the edge functions of the three vertices computed side by side in SSE
+/// lanes. Every lane performs the scalar test's operations in the scalar
+/// test's order (no FMA: -ffp-contract=off), so the answer, t and the
+/// barycentrics are bit-identical to intersect_triangle_axes (an edge
+/// function exactly 0 goes to it for the double fallback). Without SSE2 it
+/// is intersect_triangle_axes.
+template <int KX, int KY, int KZ>
+[[gnu::always_inline]] inline bool intersect_triangle_record_axes(const Ray& ray, const WatertightRay& w, const float* v,
+                                                                 float tmax, TriangleHit& hit) {
+#if defined(__SSE2__)
+  // Rows of the 3x3 vertex matrix -> columns (one vector per axis, lanes v0 v1 v2 _).
+  const __m128 r0 = _mm_loadu_ps(v), r1 = _mm_loadu_ps(v + 3), r2 = _mm_loadu_ps(v + 6);
+  const __m128 zero = _mm_setzero_ps();
+  const __m128 t0 = _mm_unpacklo_ps(r0, r1), t1 = _mm_unpackhi_ps(r0, r1);
+  const __m128 t2 = _mm_unpacklo_ps(r2, zero), t3 = _mm_unpackhi_ps(r2, zero);
+  const __m128 col[3] = {_mm_movelh_ps(t0, t2), _mm_movehl_ps(t2, t0), _mm_movelh_ps(t1, t3)};
+  const float o[3] = {ray.origin.x, ray.origin.y, ray.origin.z};
+  const __m128 ckx = _mm_sub_ps(col[KX], _mm_set1_ps(o[KX]));
+  const __m128 cky = _mm_sub_ps(col[KY], _mm_set1_ps(o[KY]));
+  const __m128 ckz = _mm_sub_ps(col[KZ], _mm_set1_ps(o[KZ]));
+  const __m128 X = _mm_sub_ps(ckx, _mm_mul_ps(_mm_set1_ps(w.sx), ckz));  // (ax, bx, cx, _)
+  const __m128 Y = _mm_sub_ps(cky, _mm_mul_ps(_mm_set1_ps(w.sy), ckz));  // (ay, by, cy, _)
+  // Lane i: X[i+2] * Y[i+1] - Y[i+2] * X[i+1] (mod 3) = (u, v, e).
+  const __m128 x2 = _mm_shuffle_ps(X, X, _MM_SHUFFLE(3, 1, 0, 2)), y1 = _mm_shuffle_ps(Y, Y, _MM_SHUFFLE(3, 0, 2, 1));
+  const __m128 y2 = _mm_shuffle_ps(Y, Y, _MM_SHUFFLE(3, 1, 0, 2)), x1 = _mm_shuffle_ps(X, X, _MM_SHUFFLE(3, 0, 2, 1));
+  const __m128 U = _mm_sub_ps(_mm_mul_ps(x2, y1), _mm_mul_ps(y2, x1));
+  const int neg = _mm_movemask_ps(_mm_cmplt_ps(U, zero)) & 7, pos = _mm_movemask_ps(_mm_cmpgt_ps(U, zero)) & 7;
+  if (neg && pos) return false;
+  if (_mm_movemask_ps(_mm_cmpeq_ps(U, zero)) & 7) [[unlikely]]  // an edge function is 0: double fallback
+    return intersect_triangle_axes<KX, KY, KZ>(ray, w, Vec3{v[0], v[1], v[2]}, Vec3{v[3], v[4], v[5]},
+                                               Vec3{v[6], v[7], v[8]}, tmax, hit);
+  // The ray's line crosses the triangle (rare): finish in scalar, on the same values.
+  alignas(16) float uve[4], z[4];
+  _mm_store_ps(uve, U);
+  _mm_store_ps(z, _mm_mul_ps(_mm_set1_ps(w.sz), ckz));
+  const float u = uve[0], vv = uve[1], e = uve[2];
+  const float det = u + vv + e;
+  if (det == 0.0f) return false;
+  const float t_scaled = u * z[0] + vv * z[1] + e * z[2];
+  const float inv_det = 1.0f / det;
+  const float t = t_scaled * inv_det;
+  if (!(t > ray.tmin && t < tmax)) return false;
+  if (triangle_is_degenerate(Vec3{v[0], v[1], v[2]}, Vec3{v[3], v[4], v[5]}, Vec3{v[6], v[7], v[8]})) [[unlikely]]
+    return false;
+  hit.t = t;
+  hit.u = vv * inv_det;
+  hit.v = e * inv_det;
+  return true;
+#else
+  return intersect_triangle_axes<KX, KY, KZ>(ray, w, Vec3{v[0], v[1], v[2]}, Vec3{v[3], v[4], v[5]},
+                                             Vec3{v[6], v[7], v[8]}, tmax, hit);
+#endif
+}
+
+/// intersect_triangle_record_axes for the ray's axis permutation: the same
+/// answer, t and barycentrics as intersect_triangle on the record's three
+/// vertices. `v`: 12 readable floats (Primitive::data of a triangle).
+inline bool intersect_triangle_record(const Ray& ray, const WatertightRay& w, const float* v, float tmax,
+                                      TriangleHit& hit) {
+  switch (w.permutation) {
+    case 0: return intersect_triangle_record_axes<1, 2, 0>(ray, w, v, tmax, hit);
+    case 1: return intersect_triangle_record_axes<2, 1, 0>(ray, w, v, tmax, hit);
+    case 2: return intersect_triangle_record_axes<2, 0, 1>(ray, w, v, tmax, hit);
+    case 3: return intersect_triangle_record_axes<0, 2, 1>(ray, w, v, tmax, hit);
+    case 4: return intersect_triangle_record_axes<0, 1, 2>(ray, w, v, tmax, hit);
+    default: return intersect_triangle_record_axes<1, 0, 2>(ray, w, v, tmax, hit);
   }
 }
 

@@ -134,7 +134,7 @@ template <int KX, int KY, int KZ>
     return intersect_curved(p, id, ray, hit, stats);
   ++stats.triangle_tests;
   TriangleHit th;
-  if (!intersect_triangle_axes<KX, KY, KZ>(ray, w, p.vertex(0), p.vertex(1), p.vertex(2), hit.t, th)) return false;
+  if (!intersect_triangle_record_axes<KX, KY, KZ>(ray, w, p.data, hit.t, th)) return false;
   hit.t = th.t;
   hit.u = th.u;
   hit.v = th.v;

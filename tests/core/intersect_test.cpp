@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <string>
@@ -508,6 +509,48 @@ TEST_CASE("intersect: an edge function that rounds to 0 in float is decided in d
   CHECK_FALSE(hit1);  // float-only: hit (u == 0, v > 0, e > 0)
   CHECK(hit2);        // watertight: the neighbour takes the ray
   if (hit2) CHECK(h2.t == 1.0f);
+}
+
+// The traversal tests triangle records with the SSE form of the test
+// (intersect_triangle_record); it must be the scalar test bit for bit: same
+// answer, same t, same barycentrics, on random triangles, on triangles
+// with integer coordinates and rays through their edges and vertices (edge
+// functions exactly 0: the double fallback), and for every axis permutation.
+TEST_CASE("intersect: the triangle-record (SSE) test equals the scalar test bit for bit") {
+  Rng rng(11);
+  std::size_t hits = 0, rays = 0, mismatches = 0;
+  std::string first;
+  for (int i = 0; i < 40000; ++i) {
+    Primitive p;
+    const bool lattice = i % 2;
+    Vec3 v[3];
+    for (Vec3& x : v)
+      x = lattice ? Vec3{std::round(uniform(rng, -3, 3)), std::round(uniform(rng, -3, 3)), std::round(uniform(rng, -3, 3))}
+                  : random_in_cube(rng, 2);
+    for (int k = 0; k < 3; ++k)
+      for (int a = 0; a < 3; ++a) p.data[3 * k + a] = v[k][a];
+    // Aim at a vertex, an edge point or an interior point.
+    const float s = uniform(rng, 0, 1), t = uniform(rng, 0, 1);
+    const Vec3 target = (i % 3 == 0) ? v[(i / 3) % 3]
+                  : (i % 3 == 1) ? v[0] + (v[1] - v[0]) * (lattice ? 0.5f : s)
+                                 : v[0] + (v[1] - v[0]) * (s * 0.5f) + (v[2] - v[0]) * (t * 0.5f);
+    const Vec3 o = lattice ? Vec3{std::round(uniform(rng, -6, 6)), std::round(uniform(rng, -6, 6)), 7.0f}
+                           : target + random_unit(rng) * uniform(rng, 0.5f, 5.0f);
+    const Ray r{o, target - o, (i % 5 == 0) ? 0.5f : 0.0f, (i % 7 == 0) ? 0.9f : kInfinity};
+    const WatertightRay w(r.direction);
+    TriangleHit hs{-1, -1, -1}, hr{-1, -1, -1};
+    const bool bs = intersect_triangle(r, w, v[0], v[1], v[2], r.tmax, hs);
+    const bool br = intersect_triangle_record(r, w, p.data, r.tmax, hr);
+    ++rays;
+    hits += bs;
+    const bool same = bs == br && (!bs || (std::memcmp(&hs, &hr, sizeof hs) == 0));
+    if (!same && mismatches++ == 0)
+      first = "ray " + std::to_string(i) + ": scalar " + std::to_string(bs) + " t=" + std::to_string(hs.t) +
+              ", record " + std::to_string(br) + " t=" + std::to_string(hr.t);
+  }
+  INFO(first);
+  CHECK(mismatches == 0);
+  CHECK(hits > rays / 4);
 }
 
 // ---------------------------------------------------------------------------
