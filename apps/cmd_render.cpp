@@ -9,6 +9,8 @@
 #include <fmt/core.h>
 
 #include <atomic>
+#include <cstdio>
+#include <tuple>
 #include <chrono>
 #include <ctime>
 #include <filesystem>
@@ -27,6 +29,9 @@
 #include "core/render.h"
 #include "core/scene_source.h"
 #include "imageio/write_image.h"
+#include "nodes/machine.h"
+#include "nodes/network.h"
+#include "nodes/replicated.h"
 
 namespace raynode::apps {
 
@@ -45,6 +50,46 @@ struct RenderOptions {
   std::string stats_path;
   std::vector<std::string> aovs;
   bool quiet = false;
+  // Node-emulator modes (replicated; svm and dataflow later).
+  std::string node_memory = "4MiB";
+  std::string network = "none";
+  double network_scale = 0;  ///< seconds per ray for ipsc2; 0 = calibrate
+  std::string topology = "hypercube";
+  std::string work_item = "3x3";
+  double timeout_s = 0;
+};
+
+/// "3x3" -> {3, 3}; throws UsageError.
+std::pair<int, int> parse_work_item(const std::string& text) {
+  int w = 0, h = 0;
+  char x = 0, extra = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d%c", &w, &x, &h, &extra) != 3 || (x != 'x' && x != 'X') || w < 1 || h < 1 ||
+      w > 256 || h > 256)
+    throw UsageError("--work-item must be WxH with 1 <= W, H <= 256 (e.g. 3x3), got '" + text + "'");
+  return {w, h};
+}
+
+bool is_node_mode(const std::string& mode) { return mode == "replicated"; }
+
+/// The emulated machine for the node modes, from the options. Throws UsageError.
+nodes::MachineParams machine_params(const RenderOptions& o) {
+  nodes::MachineParams m;
+  m.nodes = std::uint32_t(o.nodes);
+  try {
+    m.node_memory = nodes::parse_bytes(o.node_memory);
+    m.topology = nodes::parse_topology(o.topology);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--node-memory/--topology: ") + e.what());
+  }
+  m.network = nodes::make_network(o.network, o.network_scale);
+  m.timeout_s = o.timeout_s;
+  return m;
+}
+
+/// What a frame produced besides the RenderResult (node modes only).
+struct FrameExtras {
+  nlohmann::json nodes;  ///< the machine report ("nodes" in --stats), null for in-process modes
+  core::Image node;      ///< --aov node
 };
 
 /// out.png -> out.depth.exr (same directory).
@@ -77,7 +122,41 @@ Accelerator build_accelerator(const std::string& accel, const core::Database& db
 /// modes (replicated, svm, dataflow: --nodes N) get one branch each here.
 /// Throws UsageError for a mode/--nodes combination that makes no sense.
 core::RenderResult render_frame(const RenderOptions& o, const core::Database& db, const Accelerator& accel,
-                                core::RenderParams params) {
+                                core::RenderParams params, bool node_aov, FrameExtras& extras) {
+  if (is_node_mode(o.mode) && accel.embree)
+    throw UsageError("--accel embree is for the in-process modes; --mode " + o.mode + " traces with the grid");
+  if (node_aov && !is_node_mode(o.mode)) throw UsageError("--aov node needs a node-emulator mode (--mode replicated)");
+  if (o.mode == "replicated") {
+    nodes::ReplicatedParams rp;
+    rp.render = params;
+    rp.machine = machine_params(o);
+    std::tie(rp.item_w, rp.item_h) = parse_work_item(o.work_item);
+    rp.node_aov = node_aov;
+    nodes::ReplicatedResult r = nodes::render_replicated(db, *accel.grid, rp);
+    extras.nodes = r.run.to_json(true);
+    nodes::WorkStats work;
+    for (const nodes::WorkStats& w : r.work) work += w;
+    double busy = 0;
+    for (const nodes::NodeReport& n : r.run.nodes) busy += n.counters.busy_s;
+    extras.nodes["database_bytes_per_node"] = r.database_bytes;
+    extras.nodes["work_s"] = busy;
+    // Without a one-node run, T_1 is estimated by the summed busy time.
+    extras.nodes["efficiency_estimate"] =
+        r.run.parallel_time_s > 0 ? busy / (double(o.nodes) * r.run.parallel_time_s) : 0.0;
+    extras.nodes["work"] = {{"items_own", work.items_own},         {"items_received", work.items_received},
+                            {"requests_sent", work.requests_sent}, {"requests_forwarded", work.requests_forwarded},
+                            {"grants", work.grants_given},         {"request_hops", work.request_hops}};
+    for (std::size_t i = 0; i < r.work.size() && i < extras.nodes["per_node"].size(); ++i) {
+      auto& e = extras.nodes["per_node"][i];
+      e["pixels"] = r.work[i].pixels;
+      e["grants_given"] = r.work[i].grants_given;
+      e["items_received"] = r.work[i].items_received;
+      e["rays"] = r.tracing[i].rays.total();
+    }
+    extras.node = std::move(r.node);
+    if (params.progress) params.progress->store(std::uint64_t(r.render.color.width) * r.render.color.height);
+    return std::move(r.render);
+  }
   if (o.mode == "sequential" || o.mode == "shared") {
     if (o.nodes != 1)
       throw UsageError(fmt::format("--nodes {} needs a node-emulator mode; --mode {} runs in this process",
@@ -96,11 +175,13 @@ void run_render(const RenderOptions& o) {
   params.spp = o.spp;
   params.max_depth = o.max_depth;
   params.min_weight = o.min_weight;
+  bool node_aov = false;
   for (const std::string& a : o.aovs) {
-    if (a == "depth") params.depth_aov = true;
+    if (a == "node") node_aov = true;
+    else if (a == "depth") params.depth_aov = true;
     else if (a == "normal") params.normal_aov = true;
     else if (a == "primitive") params.primitive_aov = true;
-    else throw UsageError("unknown AOV '" + a + "' (supported: depth, normal, primitive)");
+    else throw UsageError("unknown AOV '" + a + "' (supported: depth, normal, primitive, node)");
   }
   if (!imageio::is_float_format(o.output) && std::filesystem::path(o.output).extension().empty())
     throw UsageError("output '" + o.output + "' has no extension to choose the image format");
@@ -120,7 +201,8 @@ void run_render(const RenderOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   const std::clock_t c0 = std::clock();
   ProgressLine progress("render", done, pixels, !o.quiet);
-  const core::RenderResult result = render_frame(o, db, accel, params);
+  FrameExtras extras;
+  const core::RenderResult result = render_frame(o, db, accel, params, node_aov, extras);
   const double cpu_s = double(std::clock() - c0) / CLOCKS_PER_SEC;
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   progress.finish();
@@ -135,6 +217,7 @@ void run_render(const RenderOptions& o) {
   write_aov("depth", result.depth);
   write_aov("normal", result.normal);
   write_aov("primitive", result.primitive);
+  write_aov("node", extras.node);
 
   const core::RenderStats& s = result.stats;
   if (!o.stats_path.empty()) {
@@ -188,6 +271,12 @@ void run_render(const RenderOptions& o) {
     };
     if (accel.grid) j["grid_resolution"] = {accel.grid->info.res[0], accel.grid->info.res[1], accel.grid->info.res[2]};
     for (const auto& [name, path] : aov_files) j["aov_outputs"][name] = path;
+    if (!extras.nodes.is_null()) {
+      // "nodes" stays the count; the machine's totals and each node's counters beside it.
+      j["per_node"] = extras.nodes["per_node"];
+      extras.nodes.erase("per_node");
+      j["machine"] = extras.nodes;
+    }
     std::ofstream f(o.stats_path);
     if (!f) throw std::runtime_error("cannot write " + o.stats_path);
     f << j.dump(2) << "\n";
@@ -220,12 +309,14 @@ void register_render_command(CLI::App& app) {
                 "Output image; format by extension: LDR (png, tif, ppm, jpg, ...) gets 8 bits clamped to [0,1], "
                 "exr/hdr get linear floats")
       ->capture_default_str();
-  c->add_option("--mode", o->mode, "sequential (one thread) or shared (TBB threads over 16x16 tiles)")
-      ->check(CLI::IsMember({"sequential", "shared"}))
+  c->add_option("--mode", o->mode,
+                "sequential (one thread), shared (TBB threads over 16x16 tiles), or replicated (--nodes emulated "
+                "nodes, each with a full database copy in its --node-memory; pixels by submaps and work stealing)")
+      ->check(CLI::IsMember({"sequential", "shared", "replicated"}))
       ->capture_default_str();
   c->add_option("--nodes", o->nodes,
-                "Emulated nodes, for the node-emulator modes only (replicated, svm, dataflow: not yet "
-                "available); sequential and shared need 1")
+                "Emulated nodes (threads with private memories), for the node-emulator modes (replicated); "
+                "sequential and shared need 1")
       ->check(CLI::Range(1, 4096))
       ->capture_default_str();
   c->add_option("--accel", o->accel,
@@ -255,9 +346,27 @@ void register_render_command(CLI::App& app) {
                 "depth (NAME.depth.exr: eye-to-hit distance in world units, +inf on a miss), normal "
                 "(NAME.normal.exr: unit shading normal facing the eye, 0 on a miss), primitive "
                 "(NAME.primitive.exr: file-order index of the NFF shape hit, counting p/pp/s/c statements "
-                "from 0 after --tessellate, -1 on a miss)")
+                "from 0 after --tessellate, -1 on a miss), node (node modes: NAME.node.exr, id of the node that "
+                "computed the pixel, as in the paper's Figure 6)")
       ->delimiter(',')
-      ->check(CLI::IsMember({"depth", "normal", "primitive"}));
+      ->check(CLI::IsMember({"depth", "normal", "primitive", "node"}));
+  c->add_option("--node-memory", o->node_memory,
+                "Node modes: memory budget per node (B, KiB, MiB, GiB; the iPSC/2 node had 4 MiB)")
+      ->capture_default_str();
+  c->add_option("--network", o->network,
+                "Node modes: network cost model for virtual time: none (free), ipsc2 (the paper's iPSC/2 scaled to "
+                "this machine's ray speed), cluster (1.5 us, 12.5 GB/s)")
+      ->check(CLI::IsMember({"none", "ipsc2", "cluster"}))
+      ->capture_default_str();
+  c->add_option("--network-scale", o->network_scale,
+                "ipsc2: this machine's seconds per ray (default: measured at start, ~0.1 s)")
+      ->check(CLI::PositiveNumber);
+  c->add_option("--topology", o->topology, "Node modes: interconnect: hypercube (iPSC/2), ring, torus")
+      ->check(CLI::IsMember({"hypercube", "ring", "torus"}))
+      ->capture_default_str();
+  c->add_option("--work-item", o->work_item, "Node modes: pixels per work item, WxH")->capture_default_str();
+  c->add_option("--timeout", o->timeout_s, "Node modes: stop with an error after this many wall seconds (0 = never)")
+      ->check(CLI::NonNegativeNumber);
   c->add_flag("--quiet,-q", o->quiet, "Print nothing on success, no progress line");
   c->callback([o] { run_render(*o); });
 }

@@ -25,6 +25,7 @@
 #include <stdexcept>
 #include <string>
 #include <type_traits>
+#include <utility>
 
 namespace raynode::nodes {
 
@@ -79,6 +80,24 @@ class Arena : public std::pmr::memory_resource {
   template <class T>
   void deallocate_array(std::span<T> a) noexcept {
     deallocate_bytes(a.data(), a.size() * sizeof(T), alignof(T));
+  }
+
+  /// One T constructed in the arena; pair with destroy(). Throws ArenaExhausted.
+  template <class T, class... Args>
+  T* create(const char* what, Args&&... args) {
+    void* p = allocate_bytes(sizeof(T), alignof(T), what);
+    try {
+      return new (p) T(std::forward<Args>(args)...);
+    } catch (...) {
+      deallocate_bytes(p, sizeof(T), alignof(T));
+      throw;
+    }
+  }
+  template <class T>
+  void destroy(T* p) noexcept {
+    if (!p) return;
+    p->~T();
+    deallocate_bytes(p, sizeof(T), alignof(T));
   }
 
  private:

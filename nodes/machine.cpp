@@ -33,8 +33,14 @@ const char* message_type_name(MessageType type) {
 }
 
 MachineState::MachineState(const MachineParams& p)
-    : params(p), topology(p.topology, p.nodes), finished(new std::atomic<bool>[p.nodes]) {
+    : params(p),
+      topology(p.topology, p.nodes),
+      finished(new std::atomic<bool>[p.nodes]) {
   for (std::uint32_t i = 0; i < p.nodes; ++i) finished[i].store(false, std::memory_order_relaxed);
+  const std::uint32_t permits =
+      p.run_permits > 0 ? p.run_permits : std::max(1u, std::thread::hardware_concurrency());
+  scheduler = std::make_unique<Scheduler>(p.nodes, permits, p.schedule_window_s,
+                                          [this](std::uint32_t node) { nodes[node]->mailbox().wake(); });
 }
 
 MachineState::~MachineState() = default;
@@ -100,6 +106,7 @@ NodeReport make_report(NodeContext& ctx, double clock) {
   r.id = ctx.id();
   r.counters = ctx.counters();
   r.clock_s = clock;
+  r.work_done_s = ctx.work_done_time();
   r.memory_peak = ctx.arena().peak();
   r.memory_budget = ctx.arena().budget();
   return r;
@@ -107,10 +114,24 @@ NodeReport make_report(NodeContext& ctx, double clock) {
 
 }  // namespace
 
-RunReport Machine::run(const Main& node_main, const Main& host_main, const Main& setup) {
+RunReport Machine::run(const Main& node_main, const Main& host_main, const Main& setup, const Main& teardown) {
   const auto wall0 = std::chrono::steady_clock::now();
   MachineState state(params_);
   const std::uint32_t n = params_.nodes;
+  // Runs teardown for every built node on every way out of this function.
+  struct Teardown {
+    MachineState& state;
+    const Main& teardown;
+    ~Teardown() {
+      if (!teardown) return;
+      for (auto& node : state.nodes) {
+        try {
+          teardown(*node);
+        } catch (...) {
+        }
+      }
+    }
+  } teardown_guard{state, teardown};
   // Build the participants; their mailboxes come out of their arenas.
   try {
     state.nodes.reserve(n);
@@ -148,7 +169,10 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
       state.fail(id, std::current_exception());
     }
     final_clock[slot] = ctx.now();
-    if (id != kHost) state.finished[id].store(true, std::memory_order_release);
+    if (id != kHost) {
+      state.scheduler->release(id);
+      state.finished[id].store(true, std::memory_order_release);
+    }
     {
       std::lock_guard<std::mutex> lock(done_mutex);
       --running;
@@ -186,7 +210,8 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
   report.topology = topology_name(params_.topology);
   for (NodeId i = 0; i < n; ++i) {
     report.nodes.push_back(make_report(*state.nodes[i], final_clock[i]));
-    report.parallel_time_s = std::max(report.parallel_time_s, final_clock[i]);
+    const NodeReport& nr = report.nodes.back();
+    report.parallel_time_s = std::max(report.parallel_time_s, nr.work_done_s >= 0 ? nr.work_done_s : nr.clock_s);
   }
   report.host = make_report(*state.host, final_clock[n]);
   report.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
@@ -245,6 +270,7 @@ nlohmann::json RunReport::to_json(bool per_node) const {
       nlohmann::json e = counters_json(r.counters);
       e["id"] = r.id;
       e["clock_s"] = r.clock_s;
+      e["work_done_s"] = r.work_done_s;
       e["memory_peak_bytes"] = r.memory_peak;
       arr.push_back(std::move(e));
     }

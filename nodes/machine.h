@@ -9,7 +9,7 @@
 //      loading node memories before the nodes start; not in virtual time);
 //   3. runs node_main(ctx) on one thread per node and host_main(host ctx) on
 //      one more thread, and waits for all of them;
-//   4. returns a RunReport: each node's counters and final clock; parallel
+//   4. calls teardown(ctx) for each node (always), then returns a RunReport: each node's counters and final clock; parallel
 //      time T_p = the largest node clock.
 // An exception in any participant stops the run (the others' blocking calls
 // throw RunAborted) and is rethrown by run() as NodeError naming the node.
@@ -32,6 +32,7 @@
 #include <vector>
 
 #include "nodes/node.h"
+#include "nodes/scheduler.h"
 
 namespace raynode::nodes {
 
@@ -47,6 +48,12 @@ struct MachineParams {
   std::uint32_t host_mailbox_capacity = 4096; ///< slots of the host's mailbox
   std::uint32_t max_payload = 256;            ///< bytes per message payload, at most
   double timeout_s = 0;                       ///< watchdog, wall seconds; 0 = none
+  /// Virtual-time scheduling (scheduler.h): at most `run_permits` nodes
+  /// compute at once (0 = the host's hardware threads), the laggards first;
+  /// a node more than `schedule_window_s` virtual seconds ahead of a
+  /// waiting one hands over. A negative window turns scheduling off.
+  std::uint32_t run_permits = 0;
+  double schedule_window_s = 200e-6;
 };
 
 inline constexpr std::uint32_t kMaxNodes = 4096;
@@ -63,6 +70,7 @@ struct NodeReport {
   NodeId id = 0;
   NodeCounters counters;
   double clock_s = 0;            ///< final virtual time
+  double work_done_s = -1;       ///< virtual time its work ended (mark_work_done), -1 if never marked
   std::size_t memory_peak = 0;   ///< arena high-water mark, bytes
   std::size_t memory_budget = 0; ///< arena budget, bytes
 };
@@ -71,7 +79,7 @@ struct NodeReport {
 struct RunReport {
   std::vector<NodeReport> nodes;
   NodeReport host;
-  double parallel_time_s = 0;  ///< T_p: the largest node clock, virtual seconds
+  double parallel_time_s = 0;  ///< T_p: the latest end of work (or final clock) over the nodes, virtual seconds
   double wall_s = 0;           ///< real seconds the run took
   std::string network;         ///< preset name
   std::string topology;
@@ -96,6 +104,7 @@ class MachineState {
   std::unique_ptr<NodeContext> host;
   std::atomic<bool> stop{false};
   std::unique_ptr<std::atomic<bool>[]> finished;  ///< per node: its main returned
+  std::unique_ptr<Scheduler> scheduler;
 
   NodeContext& context(NodeId id) { return id == kHost ? *host : *nodes[id]; }
   /// Records the first failure and stops everyone.
@@ -121,8 +130,11 @@ class Machine {
 
   const MachineParams& params() const { return params_; }
 
-  /// Runs one frame as described in the file comment. Throws NodeError.
-  RunReport run(const Main& node_main, const Main& host_main, const Main& setup = {});
+  /// Runs one frame as described in the file comment. `teardown(ctx)`, if
+  /// given, runs for every node on the caller's thread after all threads
+  /// ended (also when the run failed), before the arenas go: the place to
+  /// free what setup put in them. Throws NodeError.
+  RunReport run(const Main& node_main, const Main& host_main, const Main& setup = {}, const Main& teardown = {});
 
  private:
   MachineParams params_;

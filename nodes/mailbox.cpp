@@ -2,11 +2,45 @@
 
 #include <fmt/core.h>
 
+#include <linux/futex.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include <bit>
+#include <climits>
+#include <ctime>
 #include <cstring>
 #include <stdexcept>
 
 namespace raynode::nodes {
+
+namespace {
+
+// The futex word is the std::atomic<uint32_t>'s own storage (same size and
+// representation, as libstdc++'s own atomic wait assumes). We call futex
+// directly rather than std::atomic::wait/notify because we need a timed
+// wait, and libstdc++'s notify skips the system call unless a waiter was
+// registered through its own wait.
+std::uint32_t* futex_word(std::atomic<std::uint32_t>& a) { return reinterpret_cast<std::uint32_t*>(&a); }
+
+void futex_wait(std::atomic<std::uint32_t>& word, std::uint32_t expected, double timeout_s) {
+  timespec ts{};
+  timespec* tp = nullptr;
+  if (timeout_s > 0) {
+    ts.tv_sec = time_t(timeout_s);
+    ts.tv_nsec = long((timeout_s - double(ts.tv_sec)) * 1e9);
+    tp = &ts;
+  }
+  // Returns at once if the word no longer holds `expected` (EAGAIN), on a
+  // wake, a signal or the timeout: callers re-check their condition.
+  syscall(SYS_futex, futex_word(word), FUTEX_WAIT_PRIVATE, expected, tp, nullptr, 0);
+}
+
+void futex_wake(std::atomic<std::uint32_t>& word, int count) {
+  syscall(SYS_futex, futex_word(word), FUTEX_WAKE_PRIVATE, count, nullptr, nullptr, 0);
+}
+
+}  // namespace
 
 std::size_t Mailbox::slot_bytes(std::uint32_t max_payload) {
   const std::size_t raw = sizeof(SlotHead) + std::size_t(max_payload);
@@ -74,7 +108,7 @@ bool Mailbox::try_push(MessageHeader header, std::span<const std::span<const std
     // release: a consumer whose acquire load of the counter sees this bump
     // also sees the publication above.
     wake_count_.fetch_add(1, std::memory_order_release);
-    wake_count_.notify_one();
+    futex_wake(wake_count_, 1);
   }
   return true;
 }
@@ -97,7 +131,7 @@ bool Mailbox::nonempty_for_consumer() const {
   return slot(dequeue_pos_)->seq.load(std::memory_order_acquire) == dequeue_pos_ + 1;
 }
 
-void Mailbox::wait(const std::atomic<bool>& stop) {
+void Mailbox::wait(const std::atomic<bool>& stop, double timeout_s, const std::atomic<bool>* also) {
   // Read the counter first: any bump after this read makes the futex wait
   // return at once (its value no longer matches).
   const std::uint32_t w = wake_count_.load(std::memory_order_acquire);
@@ -105,14 +139,15 @@ void Mailbox::wait(const std::atomic<bool>& stop) {
   std::atomic_thread_fence(std::memory_order_seq_cst);
   // `stop` is set before wake() bumps the counter: if our read of w saw that
   // bump we see `stop` here, otherwise the bump wakes the futex wait.
-  if (!nonempty_for_consumer() && !stop.load(std::memory_order_acquire))
-    wake_count_.wait(w, std::memory_order_acquire);
+  if (!nonempty_for_consumer() && !stop.load(std::memory_order_acquire) &&
+      !(also && also->load(std::memory_order_acquire)))
+    futex_wait(wake_count_, w, timeout_s);
   sleeping_.store(false, std::memory_order_relaxed);
 }
 
 void Mailbox::wake() {
   wake_count_.fetch_add(1, std::memory_order_release);
-  wake_count_.notify_all();
+  futex_wake(wake_count_, INT_MAX);
 }
 
 std::uint32_t Mailbox::approximate_size() const {

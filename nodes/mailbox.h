@@ -15,8 +15,8 @@
 // mailbox returns false (the dataflow mode's deadlock case needs the sender
 // to see it). The slot array lives in the owner's Arena.
 //
-// Waiting: the consumer blocks in std::atomic::wait (a futex on Linux) on a
-// wake-up counter rather than spinning, so hundreds of idle node threads cost
+// Waiting: the consumer blocks in a futex wait (Linux) on a wake-up counter
+// rather than spinning, so hundreds of idle node threads cost
 // nothing on a 2-core machine. A producer bumps the counter and notifies only
 // when the consumer has announced that it is going to sleep; a pair of
 // seq_cst fences (Dekker's pattern) guarantees that either the producer sees
@@ -61,10 +61,11 @@ class Mailbox {
   /// if empty. Wait-free.
   bool try_pop(MessageHeader& header, std::byte* payload_out);
 
-  /// Owner thread only: blocks until a message may be available, or `stop`
-  /// is true (checked after announcing the sleep). Spurious returns are
-  /// allowed; callers loop.
-  void wait(const std::atomic<bool>& stop);
+  /// Owner thread only: blocks until a message may be available, `stop` is
+  /// true (checked after announcing the sleep), or `timeout_s` seconds
+  /// passed (0 = no timeout). Spurious returns are allowed; callers loop.
+  /// `also`, when given, is one more flag that ends the wait (a run permit).
+  void wait(const std::atomic<bool>& stop, double timeout_s = 0, const std::atomic<bool>* also = nullptr);
   /// Any thread: wakes the owner if it waits. To stop a run, set the stop
   /// flag (release or stronger) first, then call wake().
   void wake();

@@ -59,6 +59,7 @@ const Topology& NodeContext::topology() const { return machine_->topology; }
 const NetworkModel& NodeContext::network() const { return machine_->params.network; }
 
 void NodeContext::sync_compute() {
+  if (id_ == kHost) return;  // the host is outside the emulated machine: its bookkeeping takes no virtual time
   const double cpu = thread_cpu_seconds();
   const double d = std::max(0.0, cpu - cpu_mark_);
   clock_ += d;
@@ -67,6 +68,7 @@ void NodeContext::sync_compute() {
 }
 
 void NodeContext::end_messaging() {
+  if (id_ == kHost) return;
   const double cpu = thread_cpu_seconds();
   counters_.overhead_cpu_s += std::max(0.0, cpu - cpu_mark_);
   cpu_mark_ = cpu;
@@ -82,6 +84,31 @@ void NodeContext::charge(double seconds) {
   clock_ += seconds;
   counters_.busy_s += seconds;
 }
+
+bool NodeContext::try_run() {
+  if (id_ == kHost) return true;
+  return machine_->scheduler->try_run(id_, now());
+}
+
+bool NodeContext::yield_point() {
+  if (id_ == kHost) return true;
+  return machine_->scheduler->yield_point(id_, now());
+}
+
+void NodeContext::release_run() {
+  if (id_ != kHost) machine_->scheduler->release(id_);
+}
+
+void NodeContext::wait_for_mail(double timeout_s) {
+  check_stop();
+  if (!backlog_.empty()) return;
+  sync_compute();
+  mailbox_->wait(machine_->stop, timeout_s,
+                 id_ == kHost ? nullptr : &machine_->scheduler->granted_flag(id_));
+  end_messaging();
+}
+
+void NodeContext::mark_work_done() { work_done_s_ = now(); }
 
 void NodeContext::reset_cpu_mark() { cpu_mark_ = thread_cpu_seconds(); }
 
@@ -173,7 +200,12 @@ bool NodeContext::poll(Message& out) {
 
 Message NodeContext::receive(WaitKind kind) {
   Message m;
+  bool released = false;
   while (!poll(m)) {
+    if (!released) {
+      release_run();  // blocked: let a waiting node compute
+      released = true;
+    }
     sync_compute();
     mailbox_->wait(machine_->stop);
     end_messaging();

@@ -104,9 +104,25 @@ class NodeContext {
   double now();
   /// Adds a modelled cost (e.g. serving a request) as busy time.
   void charge(double seconds);
+  /// Records now() as the end of this node's work (the farm calls it when
+  /// its work request returns); the run's parallel time is the largest
+  /// such time (or final clock, for nodes that never mark it).
+  void mark_work_done();
+  double work_done_time() const { return work_done_s_; }
   /// Starts measuring from here: drops CPU time since the last sample (used
   /// after a load phase that is not part of the run).
   void reset_cpu_mark();
+
+  // --- Virtual-time scheduling (scheduler.h) ------------------------------
+  /// May this node compute now? Takes a run permit if one is free; else the
+  /// node is queued and the caller should wait_for_mail() (which also ends
+  /// when the permit arrives) and ask again.
+  bool try_run();
+  /// Between work units: false if the permit went to a node lagging behind
+  /// in virtual time (then wait_for_mail() and try_run() again).
+  bool yield_point();
+  /// Gives up the run permit (receive() does so itself before blocking).
+  void release_run();
 
   // --- Sending ------------------------------------------------------------
   /// Sends `parts` (concatenated) to `dest` as a message of `type`. Departs
@@ -145,6 +161,10 @@ class NodeContext {
   /// The next message if one is queued, without waiting and without moving
   /// the clock (interrupt-level handling: use header.arrival_time).
   bool poll(Message& out);
+  /// Blocks until mail may be there, a run permit was granted, or
+  /// `timeout_s` wall seconds passed (0 = no limit), without taking the
+  /// mail and without moving the clock. Throws RunAborted.
+  void wait_for_mail(double timeout_s);
 
  private:
   friend class Machine;
@@ -168,6 +188,7 @@ class NodeContext {
   std::pmr::vector<std::byte> backlog_current_;
   double clock_ = 0;
   double cpu_mark_ = 0;
+  double work_done_s_ = -1;
   NodeCounters counters_;
 };
 

@@ -3,7 +3,9 @@
 #include <fmt/core.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstring>
+#include <thread>
 #include <stdexcept>
 
 namespace raynode::nodes {
@@ -157,6 +159,14 @@ WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_
     // Interrupts first: requests are answered while we still have items.
     while (!done && ctx.poll(m)) done = farm.handle(m, pool, have_grant, grant);
     if (done) break;
+    // Virtual-time scheduling (scheduler.h): compute only with a run
+    // permit, and hand it over to nodes lagging behind, serving mail while
+    // waiting, so that who steals from whom follows virtual time rather
+    // than the host's thread scheduling.
+    if ((pool.remaining() > 0 || have_grant) && !(ctx.try_run() && ctx.yield_point())) {
+      ctx.wait_for_mail(0);
+      continue;
+    }
     Rect item;
     if (pool.take_front(item)) {
       render_item(ctx, item);
@@ -180,7 +190,9 @@ WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_
     m = ctx.receive(WaitKind::kIdle);
     done = farm.handle(m, pool, have_grant, grant);
   }
-  farm.stats.done_time_s = ctx.now();
+  ctx.release_run();  // our work is over
+  ctx.mark_work_done();
+  farm.stats.done_time_s = ctx.work_done_time();
   ctx.send(kHost, MessageType::kNodeDone, WorkRequestMsg{ctx.id(), 0});
   // Serve others (forward their requests, mode messages) until shutdown.
   while (true) {

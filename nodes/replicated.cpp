@@ -1,0 +1,185 @@
+#include "nodes/replicated.h"
+
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <bit>
+#include <cstring>
+#include <memory>
+#include <stdexcept>
+
+#include "core/camera.h"
+#include "core/direct_view.h"
+#include "core/shade.h"
+
+namespace raynode::nodes {
+
+namespace {
+
+/// Copies `src` into a new array in `arena`.
+template <class T>
+ArenaArray<T> copy_to(Arena& arena, std::span<const T> src, const char* what) {
+  ArenaArray<T> a(arena, src.size(), what);
+  if (!src.empty()) std::memcpy(static_cast<void*>(a.data()), src.data(), src.size_bytes());
+  return a;
+}
+
+/// Everything a node holds, all of it in its arena.
+struct NodeState {
+  ArenaArray<core::Primitive> primitives;
+  ArenaArray<core::TriangleNormals> vertex_normals;
+  ArenaArray<core::Material> materials;
+  ArenaArray<std::uint32_t> cell_start;
+  ArenaArray<std::uint32_t> cell_primitives;
+  ArenaArray<core::Light> lights;
+  ArenaArray<float> pixels;  ///< one work item's outgoing pixels
+  core::ShadingScratch* scratch = nullptr;
+  Arena* arena = nullptr;
+  core::RenderStats stats;
+  WorkStats work;
+
+  ~NodeState() {
+    if (arena) arena->destroy(scratch);
+  }
+};
+
+/// Channels per pixel sent to the host: RGB, then the requested AOVs.
+struct Layout {
+  std::uint32_t channels = 3;
+  int depth = -1, normal = -1, primitive = -1;
+  explicit Layout(const core::RenderParams& p) {
+    if (p.depth_aov) depth = int(channels++);
+    if (p.normal_aov) normal = int(channels), channels += 3;
+    if (p.primitive_aov) primitive = int(channels++);
+  }
+};
+
+}  // namespace
+
+std::size_t replicated_bytes_per_node(const core::Database& db, const core::Grid& grid) {
+  return core::DatabaseArrays::of(db, grid).bytes() + db.lights.size() * sizeof(core::Light);
+}
+
+ReplicatedResult render_replicated(const core::Database& db, const core::Grid& grid, const ReplicatedParams& params) {
+  const core::RenderParams& rp = params.render;
+  if (rp.spp < 1) throw std::invalid_argument("spp must be >= 1");
+  if (rp.max_depth < 1) throw std::invalid_argument("max depth must be >= 1");
+  if (params.item_w < 1 || params.item_h < 1)
+    throw std::invalid_argument(fmt::format("work item must be at least 1x1, got {}x{}", params.item_w, params.item_h));
+  const core::View cam_view = core::render_view(db);
+  const int w = rp.width > 0 ? rp.width : cam_view.width;
+  const int h = rp.height > 0 ? rp.height : cam_view.height;
+  const core::Camera camera(cam_view, w, h);
+  const Layout layout(rp);
+  const bool want_first = rp.any_aov();
+
+  MachineParams mp = params.machine;
+  mp.max_payload = std::max(mp.max_payload, pixels_payload_bytes(params.item_w, params.item_h, layout.channels));
+  Machine machine(mp);  // validates the node count
+  const MachineParams& m = machine.params();
+
+  // Fail early, with the sizes, when a copy cannot fit beside the mailbox.
+  const core::DatabaseArrays host_arrays = core::DatabaseArrays::of(db, grid);
+  const std::size_t copy_bytes = replicated_bytes_per_node(db, grid);
+  const std::size_t fixed = Mailbox::slot_bytes(m.max_payload) * std::bit_ceil(std::max(m.mailbox_capacity, 2u)) +
+                            m.max_payload + std::size_t(pixels_payload_bytes(params.item_w, params.item_h, layout.channels)) +
+                            sizeof(core::ShadingScratch);
+  if (copy_bytes + fixed > m.node_memory)
+    throw std::runtime_error(fmt::format(
+        "replicated mode: the database needs {} per node ({} B, plus {} for the mailbox and buffers), "
+        "--node-memory is {} ({} B)",
+        format_bytes(copy_bytes), copy_bytes, format_bytes(fixed), format_bytes(m.node_memory), m.node_memory));
+
+  ReplicatedResult out;
+  out.database_bytes = copy_bytes;
+  out.render.color = core::Image(w, h, 3);
+  if (rp.depth_aov) out.render.depth = core::Image(w, h, 1);
+  if (rp.normal_aov) out.render.normal = core::Image(w, h, 3);
+  if (rp.primitive_aov) out.render.primitive = core::Image(w, h, 1);
+  if (params.node_aov) out.node = core::Image(w, h, 1);
+
+  const std::vector<Rect> submaps = make_submaps(w, h, m.nodes);
+  std::vector<std::unique_ptr<NodeState>> states(m.nodes);
+  const std::uint32_t item_floats = std::uint32_t(params.item_w * params.item_h) * layout.channels;
+
+  // The host loads each node's memory: the load phase, outside virtual time.
+  auto setup = [&](NodeContext& ctx) {
+    Arena& a = ctx.arena();
+    auto s = std::make_unique<NodeState>();
+    s->arena = &a;
+    s->primitives = copy_to(a, host_arrays.primitives, "the database copy (primitives)");
+    s->vertex_normals = copy_to(a, host_arrays.vertex_normals, "the database copy (vertex normals)");
+    s->materials = copy_to(a, host_arrays.materials, "the database copy (materials)");
+    s->cell_start = copy_to(a, host_arrays.cell_start, "the database copy (grid cells)");
+    s->cell_primitives = copy_to(a, host_arrays.cell_primitives, "the database copy (cell lists)");
+    s->lights = copy_to(a, std::span<const core::Light>(db.lights), "the lights");
+    s->pixels = ArenaArray<float>(a, item_floats, "its pixel buffer");
+    s->scratch = a.create<core::ShadingScratch>("its tracing scratch");
+    states[ctx.id()] = std::move(s);
+  };
+  auto teardown = [&](NodeContext& ctx) { states[ctx.id()].reset(); };
+
+  auto node_main = [&](NodeContext& ctx) {
+    NodeState& s = *states[ctx.id()];
+    core::DatabaseArrays mine{s.primitives.span(), s.vertex_normals.span(), s.materials.span(),
+                              s.cell_start.span(), s.cell_primitives.span(), grid.info};
+    const core::DirectView view(mine);
+    const core::ShadingContext shading =
+        core::make_shading_context(std::span<const core::Light>(s.lights.span()), db.background, rp.max_depth,
+                                   rp.min_weight);
+    core::ShadingScratch& scratch = *s.scratch;
+    s.work = run_work_farm(ctx, submaps[ctx.id()], params.item_w, params.item_h,
+                           [&](NodeContext& c, const Rect& r) {
+                             float* o = s.pixels.data();
+                             for (int y = r.y0; y < r.y1; ++y)
+                               for (int x = r.x0; x < r.x1; ++x) {
+                                 const core::PixelResult px =
+                                     core::render_pixel(view, shading, camera, x, y, rp.spp, want_first, scratch);
+                                 *o++ = px.color.x;
+                                 *o++ = px.color.y;
+                                 *o++ = px.color.z;
+                                 if (layout.depth >= 0) *o++ = px.first.t;
+                                 if (layout.normal >= 0) {
+                                   *o++ = px.first.normal.x;
+                                   *o++ = px.first.normal.y;
+                                   *o++ = px.first.normal.z;
+                                 }
+                                 if (layout.primitive >= 0) *o++ = float(px.first.shape);
+                               }
+                             send_pixels(c, r, layout.channels,
+                                         std::span<const float>(s.pixels.data(), std::size_t(r.area()) * layout.channels));
+                           });
+    s.stats = scratch.stats;
+    s.stats.traversal = scratch.traversal.stats;
+  };
+
+  auto host_main = [&](NodeContext& host) {
+    gather_pixels(host, [&](NodeId src, const Rect& r, std::uint32_t ch, std::span<const float> px) {
+      if (ch != layout.channels) throw std::logic_error("host: pixel message with the wrong channel count");
+      const float* p = px.data();
+      for (int y = r.y0; y < r.y1; ++y)
+        for (int x = r.x0; x < r.x1; ++x, p += ch) {
+          std::memcpy(out.render.color.at(x, y), p, 3 * sizeof(float));
+          if (layout.depth >= 0) *out.render.depth.at(x, y) = p[layout.depth];
+          if (layout.normal >= 0) std::memcpy(out.render.normal.at(x, y), p + layout.normal, 3 * sizeof(float));
+          if (layout.primitive >= 0) *out.render.primitive.at(x, y) = p[layout.primitive];
+          if (params.node_aov) *out.node.at(x, y) = float(src);
+        }
+    });
+  };
+
+  out.run = machine.run(node_main, host_main, setup, [&](NodeContext& ctx) {
+    // Keep the counters, free the arena's contents.
+    if (states[ctx.id()]) {
+      out.tracing.resize(m.nodes);
+      out.work.resize(m.nodes);
+      out.tracing[ctx.id()] = states[ctx.id()]->stats;
+      out.work[ctx.id()] = states[ctx.id()]->work;
+    }
+    teardown(ctx);
+  });
+  for (const core::RenderStats& s : out.tracing) out.render.stats += s;
+  return out;
+}
+
+}  // namespace raynode::nodes

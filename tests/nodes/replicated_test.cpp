@@ -1,0 +1,91 @@
+#include <doctest/doctest.h>
+
+#include <cstring>
+#include <string>
+
+#include "core/database.h"
+#include "core/grid.h"
+#include "core/render.h"
+#include "core/spd.h"
+#include "nodes/replicated.h"
+
+using namespace raynode;
+using namespace raynode::nodes;
+
+namespace {
+
+struct Built {
+  core::Database db;
+  core::Grid grid;
+};
+
+Built build(const char* name, int size) {
+  Built b;
+  b.db = core::make_database(core::make_spd_scene(core::SpdParams{name, size, 0}));
+  b.grid = core::build_grid(b.db);
+  return b;
+}
+
+bool same_bytes(const core::Image& a, const core::Image& b) {
+  return a.width == b.width && a.height == b.height && a.channels == b.channels &&
+         std::memcmp(a.pixels.data(), b.pixels.data(), a.pixels.size() * sizeof(float)) == 0;
+}
+
+}  // namespace
+
+TEST_CASE("replicated: images and AOVs are bit-identical to sequential for N in {1, 2, 3, 7, 16, 64}") {
+  for (auto [name, size] : {std::pair{"balls", 1}, std::pair{"rings", 1}}) {
+    const Built b = build(name, size);
+    core::RenderParams rp;
+    rp.width = 40;
+    rp.height = 30;
+    rp.depth_aov = rp.normal_aov = rp.primitive_aov = true;
+    const core::RenderResult seq = core::render(b.db, b.grid, rp);
+    for (std::uint32_t n : {1u, 2u, 3u, 7u, 16u, 64u}) {
+      CAPTURE(name);
+      CAPTURE(n);
+      ReplicatedParams p;
+      p.render = rp;
+      p.machine.nodes = n;
+      p.machine.node_memory = 8 * kMiB;
+      p.machine.timeout_s = 120;
+      p.node_aov = true;
+      const ReplicatedResult r = render_replicated(b.db, b.grid, p);
+      CHECK(same_bytes(r.render.color, seq.color));
+      CHECK(same_bytes(r.render.depth, seq.depth));
+      CHECK(same_bytes(r.render.normal, seq.normal));
+      CHECK(same_bytes(r.render.primitive, seq.primitive));
+      CHECK(r.render.stats.rays.total() == seq.stats.rays.total());
+      CHECK(r.render.stats.traversal.triangle_tests + r.render.stats.traversal.sphere_tests ==
+            seq.stats.traversal.triangle_tests + seq.stats.traversal.sphere_tests);
+      std::uint64_t pixels = 0;
+      for (const WorkStats& w : r.work) pixels += w.pixels;
+      CHECK(pixels == 40u * 30u);
+      // Every pixel's node id is a real node, and with several nodes more than one worked.
+      float lo = 1e9f, hi = -1;
+      for (float v : r.node.pixels) lo = std::min(lo, v), hi = std::max(hi, v);
+      CHECK(lo >= 0);
+      CHECK(hi <= float(n - 1));
+      if (n > 1) CHECK(hi > lo);
+      CHECK(r.run.total().sent[std::size_t(MessageType::kPixels)].messages > 0);
+      CHECK(r.run.nodes.front().memory_peak >= r.database_bytes);  // the copy really sits in the arena
+    }
+  }
+}
+
+TEST_CASE("replicated: a database that does not fit a node fails at once with both sizes") {
+  const Built b = build("tetra", 4);  // 1024 triangles
+  ReplicatedParams p;
+  p.render.width = p.render.height = 8;
+  p.machine.nodes = 4;
+  p.machine.node_memory = 32 * 1024;
+  try {
+    render_replicated(b.db, b.grid, p);
+    FAIL("must throw");
+  } catch (const std::runtime_error& e) {
+    const std::string what = e.what();
+    CHECK(what.find("replicated mode: the database needs") == 0);
+    CHECK(what.find(std::to_string(replicated_bytes_per_node(b.db, b.grid)) + " B") != std::string::npos);
+    CHECK(what.find("--node-memory is 32 KiB") != std::string::npos);
+  }
+}
