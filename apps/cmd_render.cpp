@@ -57,6 +57,7 @@ struct RenderOptions {
   std::string topology = "hypercube";
   std::string work_item = "3x3";
   double timeout_s = 0;
+  double schedule_window_us = 200;
 };
 
 /// "3x3" -> {3, 3}; throws UsageError.
@@ -83,6 +84,7 @@ nodes::MachineParams machine_params(const RenderOptions& o) {
   }
   m.network = nodes::make_network(o.network, o.network_scale);
   m.timeout_s = o.timeout_s;
+  m.schedule_window_s = o.schedule_window_us * 1e-6;
   return m;
 }
 
@@ -365,6 +367,11 @@ void register_render_command(CLI::App& app) {
       ->check(CLI::IsMember({"hypercube", "ring", "torus"}))
       ->capture_default_str();
   c->add_option("--work-item", o->work_item, "Node modes: pixels per work item, WxH")->capture_default_str();
+  c->add_option("--schedule-window", o->schedule_window_us,
+                "Node modes: virtual-time scheduling window in microseconds: a node this far ahead of a waiting "
+                "one hands the CPU over (smaller = closer to a real parallel machine, more thread switches; "
+                "negative = off, the OS schedules the node threads)")
+      ->capture_default_str();
   c->add_option("--timeout", o->timeout_s, "Node modes: stop with an error after this many wall seconds (0 = never)")
       ->check(CLI::NonNegativeNumber);
   c->add_flag("--quiet,-q", o->quiet, "Print nothing on success, no progress line");

@@ -25,6 +25,8 @@ void add_scene_options(CLI::App& cmd, core::SceneSource& source);
 void register_scene_commands(CLI::App& app);
 void register_validate_command(CLI::App& app);
 void register_bench_command(CLI::App& app);
+/// bench mailbox, bench nodes (after register_bench_command).
+void register_bench_nodes_commands(CLI::App& app);
 void register_render_command(CLI::App& app);
 
 }  // namespace raynode::apps

@@ -32,6 +32,7 @@ int main(int argc, char** argv) {
   apps::register_scene_commands(app);
   apps::register_validate_command(app);
   apps::register_bench_command(app);
+  apps::register_bench_nodes_commands(app);
   apps::register_render_command(app);
   try {
     app.parse(argc, argv);

@@ -89,3 +89,19 @@ TEST_CASE("replicated: a database that does not fit a node fails at once with bo
     CHECK(what.find("--node-memory is 32 KiB") != std::string::npos);
   }
 }
+
+TEST_CASE("replicated: 256 nodes on this machine terminate cleanly with the sequential image") {
+  const Built b = build("balls", 1);
+  core::RenderParams rp;
+  rp.width = 48;
+  rp.height = 40;
+  const core::RenderResult seq = core::render(b.db, b.grid, rp);
+  ReplicatedParams p;
+  p.render = rp;
+  p.machine.nodes = 256;
+  p.machine.timeout_s = 120;  // a hang fails the test instead of blocking CI
+  const ReplicatedResult r = render_replicated(b.db, b.grid, p);
+  CHECK(same_bytes(r.render.color, seq.color));
+  CHECK(r.run.nodes.size() == 256);
+  CHECK(r.run.total().received[std::size_t(MessageType::kShutdown)].messages == 256);
+}
