@@ -24,8 +24,18 @@ ArenaArray<T> copy_to(Arena& arena, std::span<const T> src, const char* what) {
   return a;
 }
 
-/// Everything a node holds, all of it in its arena.
+/// Everything a node holds: the arrays in its arena, plus O(1) metadata
+/// (grid description, camera, background, parameters) copied by value, so
+/// the node thread reads nothing of the host's.
 struct NodeState {
+  NodeState(const core::GridInfo& g, const core::Camera& c, const core::Vec3& bg, const core::RenderParams& p,
+            const Rect& submap)
+      : grid(g), camera(c), background(bg), render(p), submap(submap) {}
+  core::GridInfo grid;
+  core::Camera camera;
+  core::Vec3 background;
+  core::RenderParams render;
+  Rect submap;
   ArenaArray<core::Primitive> primitives;
   ArenaArray<core::TriangleNormals> vertex_normals;
   ArenaArray<core::Material> materials;
@@ -71,7 +81,6 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
   const int h = rp.height > 0 ? rp.height : cam_view.height;
   const core::Camera camera(cam_view, w, h);
   const Layout layout(rp);
-  const bool want_first = rp.any_aov();
 
   MachineParams mp = params.machine;
   mp.max_payload = std::max(mp.max_payload, pixels_payload_bytes(params.item_w, params.item_h, layout.channels));
@@ -105,7 +114,7 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
   // The host loads each node's memory: the load phase, outside virtual time.
   auto setup = [&](NodeContext& ctx) {
     Arena& a = ctx.arena();
-    auto s = std::make_unique<NodeState>();
+    auto s = std::make_unique<NodeState>(grid.info, camera, db.background, rp, submaps[ctx.id()]);
     s->arena = &a;
     s->primitives = copy_to(a, host_arrays.primitives, "the database copy (primitives)");
     s->vertex_normals = copy_to(a, host_arrays.vertex_normals, "the database copy (vertex normals)");
@@ -122,19 +131,19 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
   auto node_main = [&](NodeContext& ctx) {
     NodeState& s = *states[ctx.id()];
     core::DatabaseArrays mine{s.primitives.span(), s.vertex_normals.span(), s.materials.span(),
-                              s.cell_start.span(), s.cell_primitives.span(), grid.info};
+                              s.cell_start.span(), s.cell_primitives.span(), s.grid};
     const core::DirectView view(mine);
-    const core::ShadingContext shading =
-        core::make_shading_context(std::span<const core::Light>(s.lights.span()), db.background, rp.max_depth,
-                                   rp.min_weight);
+    const core::ShadingContext shading = core::make_shading_context(
+        std::span<const core::Light>(s.lights.span()), s.background, s.render.max_depth, s.render.min_weight);
     core::ShadingScratch& scratch = *s.scratch;
-    s.work = run_work_farm(ctx, submaps[ctx.id()], params.item_w, params.item_h,
+    const bool first = s.render.any_aov();
+    s.work = run_work_farm(ctx, s.submap, params.item_w, params.item_h,
                            [&](NodeContext& c, const Rect& r) {
                              float* o = s.pixels.data();
                              for (int y = r.y0; y < r.y1; ++y)
                                for (int x = r.x0; x < r.x1; ++x) {
                                  const core::PixelResult px =
-                                     core::render_pixel(view, shading, camera, x, y, rp.spp, want_first, scratch);
+                                     core::render_pixel(view, shading, s.camera, x, y, s.render.spp, first, scratch);
                                  *o++ = px.color.x;
                                  *o++ = px.color.y;
                                  *o++ = px.color.z;
