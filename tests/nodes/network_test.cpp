@@ -1,5 +1,7 @@
 #include <doctest/doctest.h>
 
+#include <stdexcept>
+
 #include "nodes/network.h"
 
 using namespace raynode::nodes;
