@@ -141,6 +141,25 @@ inline bool intersect_triangle(const Ray& ray, const WatertightRay& w, const Vec
   }
 }
 
+/// Per-ray constants of intersect_triangle_record_axes broadcast to SSE
+/// lanes (origin components in the ray's axis order, shear), built once per
+/// ray so that the loop over a cell's triangles does not rebuild them.
+/// Empty without SSE2.
+struct TriangleRayLanes {
+#if defined(__SSE2__)
+  __m128 okx, oky, okz, sx, sy, sz;
+  TriangleRayLanes(const Ray& ray, const WatertightRay& w)
+      : okx(_mm_set1_ps(ray.origin[w.kx])),
+        oky(_mm_set1_ps(ray.origin[w.ky])),
+        okz(_mm_set1_ps(ray.origin[w.kz])),
+        sx(_mm_set1_ps(w.sx)),
+        sy(_mm_set1_ps(w.sy)),
+        sz(_mm_set1_ps(w.sz)) {}
+#else
+  TriangleRayLanes(const Ray&, const WatertightRay&) {}
+#endif
+};
+
 /// The watertight triangle test of intersect_triangle_axes on a triangle
 /// record's vertex array `v` (v0.xyz v1.xyz v2.xyz, as in Primitive::data;
 /// 12 floats must be readable, the last 3 are ignored), with the shear and
@@ -151,7 +170,8 @@ inline bool intersect_triangle(const Ray& ray, const WatertightRay& w, const Vec
 /// function exactly 0 goes to it for the double fallback). Without SSE2 it
 /// is intersect_triangle_axes.
 template <int KX, int KY, int KZ>
-[[gnu::always_inline]] inline bool intersect_triangle_record_axes(const Ray& ray, const WatertightRay& w, const float* v,
+[[gnu::always_inline]] inline bool intersect_triangle_record_axes(const Ray& ray, const WatertightRay& w,
+                                                                 const TriangleRayLanes& lanes, const float* v,
                                                                  float tmax, TriangleHit& hit) {
 #if defined(__SSE2__)
   // Rows of the 3x3 vertex matrix -> columns (one vector per axis, lanes v0 v1 v2 _).
@@ -160,12 +180,11 @@ template <int KX, int KY, int KZ>
   const __m128 t0 = _mm_unpacklo_ps(r0, r1), t1 = _mm_unpackhi_ps(r0, r1);
   const __m128 t2 = _mm_unpacklo_ps(r2, zero), t3 = _mm_unpackhi_ps(r2, zero);
   const __m128 col[3] = {_mm_movelh_ps(t0, t2), _mm_movehl_ps(t2, t0), _mm_movelh_ps(t1, t3)};
-  const float o[3] = {ray.origin.x, ray.origin.y, ray.origin.z};
-  const __m128 ckx = _mm_sub_ps(col[KX], _mm_set1_ps(o[KX]));
-  const __m128 cky = _mm_sub_ps(col[KY], _mm_set1_ps(o[KY]));
-  const __m128 ckz = _mm_sub_ps(col[KZ], _mm_set1_ps(o[KZ]));
-  const __m128 X = _mm_sub_ps(ckx, _mm_mul_ps(_mm_set1_ps(w.sx), ckz));  // (ax, bx, cx, _)
-  const __m128 Y = _mm_sub_ps(cky, _mm_mul_ps(_mm_set1_ps(w.sy), ckz));  // (ay, by, cy, _)
+  const __m128 ckx = _mm_sub_ps(col[KX], lanes.okx);
+  const __m128 cky = _mm_sub_ps(col[KY], lanes.oky);
+  const __m128 ckz = _mm_sub_ps(col[KZ], lanes.okz);
+  const __m128 X = _mm_sub_ps(ckx, _mm_mul_ps(lanes.sx, ckz));  // (ax, bx, cx, _)
+  const __m128 Y = _mm_sub_ps(cky, _mm_mul_ps(lanes.sy, ckz));  // (ay, by, cy, _)
   // Lane i: X[i+2] * Y[i+1] - Y[i+2] * X[i+1] (mod 3) = (u, v, e).
   const __m128 x2 = _mm_shuffle_ps(X, X, _MM_SHUFFLE(3, 1, 0, 2)), y1 = _mm_shuffle_ps(Y, Y, _MM_SHUFFLE(3, 0, 2, 1));
   const __m128 y2 = _mm_shuffle_ps(Y, Y, _MM_SHUFFLE(3, 1, 0, 2)), x1 = _mm_shuffle_ps(X, X, _MM_SHUFFLE(3, 0, 2, 1));
@@ -178,7 +197,7 @@ template <int KX, int KY, int KZ>
   // The ray's line crosses the triangle (rare): finish in scalar, on the same values.
   alignas(16) float uve[4], z[4];
   _mm_store_ps(uve, U);
-  _mm_store_ps(z, _mm_mul_ps(_mm_set1_ps(w.sz), ckz));
+  _mm_store_ps(z, _mm_mul_ps(lanes.sz, ckz));
   const float u = uve[0], vv = uve[1], e = uve[2];
   const float det = u + vv + e;
   if (det == 0.0f) return false;
@@ -203,13 +222,14 @@ template <int KX, int KY, int KZ>
 /// vertices. `v`: 12 readable floats (Primitive::data of a triangle).
 inline bool intersect_triangle_record(const Ray& ray, const WatertightRay& w, const float* v, float tmax,
                                       TriangleHit& hit) {
+  const TriangleRayLanes l(ray, w);
   switch (w.permutation) {
-    case 0: return intersect_triangle_record_axes<1, 2, 0>(ray, w, v, tmax, hit);
-    case 1: return intersect_triangle_record_axes<2, 1, 0>(ray, w, v, tmax, hit);
-    case 2: return intersect_triangle_record_axes<2, 0, 1>(ray, w, v, tmax, hit);
-    case 3: return intersect_triangle_record_axes<0, 2, 1>(ray, w, v, tmax, hit);
-    case 4: return intersect_triangle_record_axes<0, 1, 2>(ray, w, v, tmax, hit);
-    default: return intersect_triangle_record_axes<1, 0, 2>(ray, w, v, tmax, hit);
+    case 0: return intersect_triangle_record_axes<1, 2, 0>(ray, w, l, v, tmax, hit);
+    case 1: return intersect_triangle_record_axes<2, 1, 0>(ray, w, l, v, tmax, hit);
+    case 2: return intersect_triangle_record_axes<2, 0, 1>(ray, w, l, v, tmax, hit);
+    case 3: return intersect_triangle_record_axes<0, 2, 1>(ray, w, l, v, tmax, hit);
+    case 4: return intersect_triangle_record_axes<0, 1, 2>(ray, w, l, v, tmax, hit);
+    default: return intersect_triangle_record_axes<1, 0, 2>(ray, w, l, v, tmax, hit);
   }
 }
 

@@ -129,12 +129,13 @@ namespace detail {
 /// traversal dispatches on the permutation once per ray.
 template <int KX, int KY, int KZ>
 [[gnu::always_inline]] inline bool intersect_primitive_axes(const Primitive& p, std::uint32_t id, const Ray& ray,
-                                                            const WatertightRay& w, Hit& hit, TraversalStats& stats) {
+                                                            const WatertightRay& w, const TriangleRayLanes& lanes,
+                                                            Hit& hit, TraversalStats& stats) {
   if (p.kind != PrimitiveKind::kTriangle) [[unlikely]]
     return intersect_curved(p, id, ray, hit, stats);
   ++stats.triangle_tests;
   TriangleHit th;
-  if (!intersect_triangle_record_axes<KX, KY, KZ>(ray, w, p.data, hit.t, th)) return false;
+  if (!intersect_triangle_record_axes<KX, KY, KZ>(ray, w, lanes, p.data, hit.t, th)) return false;
   hit.t = th.t;
   hit.u = th.u;
   hit.v = th.v;
@@ -162,7 +163,7 @@ template <class F>
 inline bool intersect_primitive(const Primitive& p, std::uint32_t id, const Ray& ray, const WatertightRay& w, Hit& hit,
                                 TraversalStats& stats) {
   return detail::with_axes(w, [&]<int KX, int KY, int KZ>() {
-    return detail::intersect_primitive_axes<KX, KY, KZ>(p, id, ray, w, hit, stats);
+    return detail::intersect_primitive_axes<KX, KY, KZ>(p, id, ray, w, TriangleRayLanes(ray, w), hit, stats);
   });
 }
 
@@ -176,8 +177,8 @@ inline bool intersect_primitive(const Primitive& p, std::uint32_t id, const Ray&
 /// on each axis is recomputed from the boundary's grid index, never
 /// accumulated (t += delta drifts), so every view and every thread walks the
 /// same cells for the same ray. Ties between axes go to the lowest of
-/// (x < y ? (x < z ? x : z) : (y < z ? y : z)), resolved branch-free by a
-/// table; the cell index is kept linear (one add per step).
+/// (x < y ? (x < z ? x : z) : (y < z ? y : z)); the cell index is kept
+/// linear (one add per step).
 template <class Visit>
 inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
   const Vec3 inv_v{1.0f / ray.direction.x, 1.0f / ray.direction.y, 1.0f / ray.direction.z};
@@ -218,17 +219,32 @@ inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
     }
     delta[a] = step[a] * stride[a];
   }
-  // Axis of the first boundary, from the bits (x<y, x<z, y<z).
-  static constexpr int kFirstAxis[8] = {2, 1, 2, 1, 2, 2, 0, 0};
+  // The walk keeps each axis's state in its own scalars (registers), not in
+  // arrays indexed by the run-time axis.
+  float n0 = next_t[0], n1 = next_t[1], n2 = next_t[2];
+  int l0 = left[0], l1 = left[1], l2 = left[2];
+  int b0 = boundary[0], b1 = boundary[1], b2 = boundary[2];
   for (;;) {
-    const int axis = (next_t[0] < next_t[1]) ? (next_t[0] < next_t[2] ? 0 : 2) : (next_t[1] < next_t[2] ? 1 : 2);
-    const float tn = next_t[axis];
-    if (visit(std::uint32_t(cell), tn < t1 ? tn : t1)) return;
-    if (tn >= t1 || left[axis] == 0) return;
-    --left[axis];
-    cell += delta[axis];
-    boundary[axis] += step[axis];
-    next_t[axis] = (lower[axis] + float(boundary[axis]) * size[axis] - org[axis]) * inv[axis];
+    // Axis of the first boundary: (n0 < n1) ? (n0 < n2 ? 0 : 2) : (n1 < n2 ? 1 : 2).
+    if (n0 < n1 && n0 < n2) {
+      if (visit(std::uint32_t(cell), n0 < t1 ? n0 : t1) || n0 >= t1 || l0 == 0) return;
+      --l0;
+      cell += delta[0];
+      b0 += step[0];
+      n0 = (lower[0] + float(b0) * size[0] - org[0]) * inv[0];
+    } else if (!(n0 < n1) && n1 < n2) {
+      if (visit(std::uint32_t(cell), n1 < t1 ? n1 : t1) || n1 >= t1 || l1 == 0) return;
+      --l1;
+      cell += delta[1];
+      b1 += step[1];
+      n1 = (lower[1] + float(b1) * size[1] - org[1]) * inv[1];
+    } else {
+      if (visit(std::uint32_t(cell), n2 < t1 ? n2 : t1) || n2 >= t1 || l2 == 0) return;
+      --l2;
+      cell += delta[2];
+      b2 += step[2];
+      n2 = (lower[2] + float(b2) * size[2] - org[2]) * inv[2];
+    }
   }
 }
 
@@ -241,6 +257,7 @@ template <int KX, int KY, int KZ, class View>
 [[gnu::flatten]] inline bool intersect_closest_axes(const View& view, const Ray& ray, const WatertightRay& w, Hit& hit_out,
                                    TraversalScratch& scratch) {
   TraversalStats stats;
+  const TriangleRayLanes lanes(ray, w);
   Mailbox::Probe mailbox = scratch.mailbox.probe();
   Hit hit = hit_out;
   bool found = false;
@@ -251,7 +268,7 @@ template <int KX, int KY, int KZ, class View>
         ++stats.mailbox_skips;
         return;
       }
-      found |= intersect_primitive_axes<KX, KY, KZ>(view.primitive(id), id, ray, w, hit, stats);
+      found |= intersect_primitive_axes<KX, KY, KZ>(view.primitive(id), id, ray, w, lanes, hit, stats);
     });
     return found && hit.t <= t_exit;
   });
@@ -263,6 +280,7 @@ template <int KX, int KY, int KZ, class View>
 template <int KX, int KY, int KZ, class View>
 [[gnu::flatten]] inline bool intersect_any_axes(const View& view, const Ray& ray, const WatertightRay& w, TraversalScratch& scratch) {
   TraversalStats stats;
+  const TriangleRayLanes lanes(ray, w);
   Mailbox::Probe mailbox = scratch.mailbox.probe();
   bool found = false;
   Hit hit;
@@ -275,7 +293,7 @@ template <int KX, int KY, int KZ, class View>
         ++stats.mailbox_skips;
         return;
       }
-      found = intersect_primitive_axes<KX, KY, KZ>(view.primitive(id), id, ray, w, hit, stats);
+      found = intersect_primitive_axes<KX, KY, KZ>(view.primitive(id), id, ray, w, lanes, hit, stats);
     });
     return found;
   });
