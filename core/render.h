@@ -2,8 +2,9 @@
 // trace_ray (shade.h) -> a float RGB image (+ depth, normal and primitive
 // AOVs of the centre ray's first hit).
 //
-// Place in the data flow: Database + Grid -> a database view (DirectView
-// here; svm/dataflow views later) -> render_pixel for each pixel ->
+// Place in the data flow: Database + Grid -> a database view (DirectView;
+// EmbreeView for --accel embree, embree_view.h; svm/dataflow views later)
+// -> render_pixel for each pixel ->
 // core::Image -> imageio::write_image (apps only). Sequential and shared
 // modes compute each pixel with the same code, independent of the thread,
 // so their images are bit-identical.
