@@ -48,13 +48,17 @@ bool reference_triangle(const Ray& ray, const Primitive& p, double tmax, double 
   if (d[kz] < 0) std::swap(kx, ky);
   const double sx = d[kx] / d[kz], sy = d[ky] / d[kz], sz = 1.0 / d[kz];
   double px[3], py[3], pz[3];
+  double coord_error = 0;  // bound on the float test's rounding of px, py
   for (int i = 0; i < 3; ++i) {
     const double v[3] = {double(p.data[3 * i]) - o[0], double(p.data[3 * i + 1]) - o[1],
                          double(p.data[3 * i + 2]) - o[2]};
     px[i] = v[kx] - sx * v[kz];
     py[i] = v[ky] - sy * v[kz];
     pz[i] = sz * v[kz];
+    coord_error = std::max(coord_error, std::fabs(v[kx]) + std::fabs(v[ky]) + 2 * std::max(std::fabs(sx), std::fabs(sy)) *
+                                                                                std::fabs(v[kz]));
   }
+  coord_error *= 0x1p-23;  // unit roundoff 2^-24, twice: the origin subtraction and the shear
   const double u = px[2] * py[1] - py[2] * px[1];
   const double v = px[0] * py[2] - py[0] * px[2];
   const double w = px[1] * py[0] - py[1] * px[0];
@@ -70,6 +74,18 @@ bool reference_triangle(const Ray& ray, const Primitive& p, double tmax, double 
     const double dl = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     const double c = nl > 0 ? std::fabs(n[0] * d[0] + n[1] * d[1] + n[2] * d[2]) / (nl * dl) : 1.0;
     margin /= std::max(c, 1e-4);
+    // The float test computes px, py with absolute errors up to coord_error,
+    // which grow with the distance from the origin: an edge function
+    // px_j py_k - py_j px_k then errs by about coord_error x (|px_j| + |py_j|
+    // + |px_k| + |py_k|), a barycentric by that / |det|. A small triangle
+    // seen from far away thus has a wider band along its edges where float
+    // may go either way than the relative margin alone allows.
+    double edge_error = 0;
+    for (int j = 0; j < 3; ++j) {
+      const int k = (j + 1) % 3;
+      edge_error = std::max(edge_error, std::fabs(px[j]) + std::fabs(py[j]) + std::fabs(px[k]) + std::fabs(py[k]));
+    }
+    margin += std::copysign(coord_error * edge_error / std::fabs(det), margin);
   }
   if (std::min({u / det, v / det, w / det}) < margin) return false;
   const double t = (u * pz[0] + v * pz[1] + w * pz[2]) / det;

@@ -22,7 +22,10 @@
 // brute-force closest hit over all primitives in double precision, computed
 // twice, with triangles shrunk and grown by a relative barycentric margin of
 // 1e-5 / max(|cos a|, 1e-4) (a ray that close to an edge, e.g. grazing a silhouette, may go
-// either way in float); when the grid's hit distance lies between the two
+// either way in float) plus the barycentric error that the float test's
+// rounding of the ray-space vertex coordinates can cause (it grows with the
+// distance from the ray origin over the triangle's size: a small triangle
+// seen from far away); when the grid's hit distance lies between the two
 // referee answers it is counted as an oracle error (Embree's
 // robust mode inflates triangles a little; its float sphere test loses
 // digits on small, distant spheres), not as a mismatch.
