@@ -195,8 +195,9 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
     if (params_.timeout_s > 0) {
       if (!done_cv.wait_for(lock, std::chrono::duration<double>(params_.timeout_s), all_done)) {
         lock.unlock();
-        state.fail(kHost, std::make_exception_ptr(std::runtime_error(fmt::format(
-                              "the run did not finish within {} s (watchdog); stopped", params_.timeout_s))));
+        state.fail(kHost, std::make_exception_ptr(std::runtime_error(
+                              fmt::format("the run did not finish within {} s (watchdog); stopped; {}",
+                                          params_.timeout_s, state.scheduler->describe()))));
       }
     } else {
       done_cv.wait(lock, all_done);

@@ -1,82 +1,118 @@
 #include "nodes/scheduler.h"
 
+#include <fmt/core.h>
+
+#include <limits>
+
 namespace raynode::nodes {
 
 Scheduler::Scheduler(std::uint32_t nodes, std::uint32_t permits, double window,
                      std::function<void(std::uint32_t)> wake)
-    : enabled_(permits > 0 && window >= 0 && permits < nodes),
+    : enabled_(permits > 0 && window >= 0 && nodes > 1),
       window_(window),
       wake_(std::move(wake)),
       free_permits_(permits),
-      waiting_(nodes, 0),
-      wait_clock_(nodes, 0.0),
+      state_(nodes, kActiveWaiting),
+      clock_(nodes, 0.0),
       granted_(new std::atomic<bool>[nodes]) {
   for (std::uint32_t i = 0; i < nodes; ++i) granted_[i].store(false, std::memory_order_relaxed);
 }
 
-std::int64_t Scheduler::lowest_waiting() const {
-  std::int64_t best = -1;
-  for (std::size_t j = 0; j < waiting_.size(); ++j)
-    if (waiting_[j] && (best < 0 || wait_clock_[j] < wait_clock_[std::size_t(best)])) best = std::int64_t(j);
-  return best;
+double Scheduler::min_active_clock() const {
+  double m = std::numeric_limits<double>::infinity();
+  for (std::size_t j = 0; j < state_.size(); ++j)
+    if (state_[j] != kInactive && clock_[j] < m) m = clock_[j];
+  return m;
 }
 
-void Scheduler::grant(std::uint32_t j) {
-  waiting_[j] = 0;
-  // release: the grantee's acquire load in its wait sees the permit.
-  granted_[j].store(true, std::memory_order_release);
+void Scheduler::grant_eligible(std::vector<std::uint32_t>& wake) {
+  const double limit = min_active_clock() + window_;
+  while (free_permits_ > 0) {
+    // The lowest queued node, if it may run.
+    std::int64_t best = -1;
+    for (std::size_t j = 0; j < state_.size(); ++j)
+      if (state_[j] == kActiveWaiting && (best < 0 || clock_[j] < clock_[std::size_t(best)])) best = std::int64_t(j);
+    if (best < 0 || clock_[std::size_t(best)] > limit) return;
+    --free_permits_;
+    state_[std::size_t(best)] = kRunning;
+    // release: the grantee's acquire load in its wait sees the permit.
+    granted_[std::size_t(best)].store(true, std::memory_order_release);
+    wake.push_back(std::uint32_t(best));
+  }
+}
+
+void Scheduler::take_permit_back(std::uint32_t node) {
+  if (state_[node] == kRunning) {
+    granted_[node].store(false, std::memory_order_relaxed);
+    ++free_permits_;
+  }
 }
 
 bool Scheduler::try_run(std::uint32_t node, double clock) {
   if (!enabled_) return true;
   if (granted_[node].load(std::memory_order_acquire)) return true;
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (granted_[node].load(std::memory_order_relaxed)) return true;
-  if (free_permits_ > 0) {
-    --free_permits_;
-    waiting_[node] = 0;
-    granted_[node].store(true, std::memory_order_relaxed);
-    return true;
+  std::vector<std::uint32_t> wake;
+  bool ok;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    // Granted between the lock-free check and here: do not overwrite it.
+    if (state_[node] == kRunning) return true;
+    state_[node] = kActiveWaiting;
+    clock_[node] = clock;
+    grant_eligible(wake);
+    ok = state_[node] == kRunning;
   }
-  waiting_[node] = 1;
-  wait_clock_[node] = clock;
-  return false;
+  for (std::uint32_t j : wake)
+    if (j != node) wake_(j);
+  return ok;
 }
 
 bool Scheduler::yield_point(std::uint32_t node, double clock) {
   if (!enabled_) return true;
-  std::int64_t j;
+  std::vector<std::uint32_t> wake;
+  bool ok;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (!granted_[node].load(std::memory_order_relaxed)) return false;
-    j = lowest_waiting();
-    if (j < 0 || !(wait_clock_[std::size_t(j)] + window_ < clock)) return true;
-    granted_[node].store(false, std::memory_order_relaxed);
-    waiting_[node] = 1;
-    wait_clock_[node] = clock;
-    grant(std::uint32_t(j));
-    ++handoffs_;
+    if (state_[node] != kRunning) return false;
+    clock_[node] = clock;
+    if (clock > min_active_clock() + window_) {
+      // Too far ahead of someone active: give the permit back and queue.
+      take_permit_back(node);
+      state_[node] = kActiveWaiting;
+      ++handoffs_;
+    }
+    grant_eligible(wake);  // our progress may have raised the minimum
+    ok = state_[node] == kRunning;
   }
-  wake_(std::uint32_t(j));
-  return false;
+  for (std::uint32_t j : wake)
+    if (j != node) wake_(j);
+  return ok;
+}
+
+std::string Scheduler::describe() {
+  if (!enabled_) return "scheduler off";
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::string running, queued;
+  std::size_t n_running = 0, n_queued = 0;
+  for (std::size_t j = 0; j < state_.size(); ++j) {
+    if (state_[j] == kRunning && n_running++ < 8) running += fmt::format(" {}@{:.6g}", j, clock_[j]);
+    if (state_[j] == kActiveWaiting && n_queued++ < 8) queued += fmt::format(" {}@{:.6g}", j, clock_[j]);
+  }
+  return fmt::format("scheduler: {} free permits, {} running [{} ], {} queued [{} ], window {:.3g} s", free_permits_,
+                     n_running, running, n_queued, queued, window_);
 }
 
 void Scheduler::release(std::uint32_t node) {
   if (!enabled_) return;
-  std::int64_t j = -1;
+  std::vector<std::uint32_t> wake;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    waiting_[node] = 0;
-    if (!granted_[node].load(std::memory_order_relaxed)) return;
-    granted_[node].store(false, std::memory_order_relaxed);
-    j = lowest_waiting();
-    if (j < 0) {
-      ++free_permits_;
-      return;
-    }
-    grant(std::uint32_t(j));
+    if (state_[node] == kInactive) return;
+    take_permit_back(node);
+    state_[node] = kInactive;
+    grant_eligible(wake);
   }
-  wake_(std::uint32_t(j));
+  for (std::uint32_t j : wake) wake_(j);
 }
 
 }  // namespace raynode::nodes

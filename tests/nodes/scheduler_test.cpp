@@ -13,9 +13,9 @@ TEST_CASE("scheduler: K permits, the laggard gets the CPU once the runner is a w
   CHECK(s.try_run(0, 0.0));         // the free permit
   CHECK_FALSE(s.try_run(1, 0.2));   // queued at 0.2
   CHECK_FALSE(s.try_run(2, 0.1));   // queued at 0.1
-  CHECK(s.yield_point(0, 0.55));    // 0.1 + 0.5 is not < 0.55: keep going
+  CHECK(s.yield_point(0, 0.55));    // not more than 0.5 ahead of node 2 (0.1): keep going
   CHECK(woken.empty());
-  CHECK_FALSE(s.yield_point(0, 0.7));  // node 2 (0.1) is more than 0.5 behind: hand over to it
+  CHECK_FALSE(s.yield_point(0, 0.7));  // more than 0.5 ahead: the permit goes to the laggard, node 2
   REQUIRE(woken.size() == 1);
   CHECK(woken[0] == 2);
   CHECK(s.granted_flag(2).load());
@@ -26,19 +26,37 @@ TEST_CASE("scheduler: K permits, the laggard gets the CPU once the runner is a w
   REQUIRE(woken.size() == 2);
   CHECK(woken[1] == 1);
   CHECK(s.try_run(1, 0.2));
-  s.release(1);
+  s.release(1);  // node 1 done: node 0 is the only active node left
   CHECK(woken.back() == 0);
   s.release(0);
-  CHECK(s.try_run(2, 5.0));  // the permit is free again
+  CHECK(s.try_run(2, 5.0));  // everyone else inactive: runs whatever its clock
   CHECK(s.handoffs() == 1);
 }
 
-TEST_CASE("scheduler: disabled when there are at least as many permits as nodes, or with a negative window") {
-  Scheduler a(2, 2, 0.1, [](std::uint32_t) {});
+TEST_CASE("scheduler: with free permits a node still waits for an active node more than a window behind") {
+  std::vector<std::uint32_t> woken;
+  Scheduler s(2, 2, 0.1, [&](std::uint32_t n) { woken.push_back(n); });
+  REQUIRE(s.enabled());
+  CHECK(s.try_run(0, 0.0));  // both start queued at 0: both get a permit (node 1 is woken)
+  CHECK(s.try_run(1, 0.0));
+  woken.clear();
+  CHECK_FALSE(s.yield_point(0, 0.5));  // node 1 is at 0: node 0 must wait although a permit is free
+  CHECK(woken.empty());
+  CHECK(s.yield_point(1, 0.3));  // node 1 catches up, but 0.5 > 0.3 + 0.1: node 0 still waits
+  CHECK(woken.empty());
+  CHECK(s.yield_point(1, 0.45));  // now 0.5 <= 0.45 + 0.1: node 0 is let go
+  REQUIRE(woken.size() == 1);
+  CHECK(woken[0] == 0);
+  CHECK(s.try_run(0, 0.5));
+}
+
+TEST_CASE("scheduler: disabled for a single node or a negative window") {
+  Scheduler a(1, 2, 0.1, [](std::uint32_t) {});
   CHECK_FALSE(a.enabled());
-  CHECK(a.try_run(0, 0));
-  CHECK(a.try_run(1, 100));
-  CHECK(a.yield_point(1, 1e9));
+  CHECK(a.try_run(0, 100));
+  CHECK(a.yield_point(0, 1e9));
   Scheduler b(8, 2, -1, [](std::uint32_t) {});
   CHECK_FALSE(b.enabled());
+  CHECK(b.try_run(3, 0));
+  CHECK(b.yield_point(3, 1e9));
 }
