@@ -201,22 +201,13 @@ inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
     int c = static_cast<int>(std::floor((pos[a] - lower[a]) * inv_size[a]));
     c = c < 0 ? 0 : (c >= g.res[a] ? g.res[a] - 1 : c);
     cell += c * stride[a];
-    if (dir[a] > 0.0f) {
-      step[a] = 1;
-      boundary[a] = c + 1;
-      left[a] = g.res[a] - 1 - c;
-      next_t[a] = (lower[a] + float(c + 1) * size[a] - org[a]) * inv[a];
-    } else if (dir[a] < 0.0f) {
-      step[a] = -1;
-      boundary[a] = c;
-      left[a] = c;
-      next_t[a] = (lower[a] + float(c) * size[a] - org[a]) * inv[a];
-    } else {
-      step[a] = 0;
-      boundary[a] = 0;
-      left[a] = -1;  // never reached: next_t stays +inf
-      next_t[a] = kInfinity;
-    }
+    // Branch-free on the direction's sign (select, not jump).
+    const bool pos_dir = dir[a] > 0.0f, neg_dir = dir[a] < 0.0f;
+    step[a] = int(pos_dir) - int(neg_dir);
+    boundary[a] = c + int(pos_dir);
+    left[a] = pos_dir ? g.res[a] - 1 - c : (neg_dir ? c : -1);  // -1: never reached, next_t stays +inf
+    const float t_boundary = (lower[a] + float(boundary[a]) * size[a] - org[a]) * inv[a];
+    next_t[a] = (pos_dir || neg_dir) ? t_boundary : kInfinity;
     delta[a] = step[a] * stride[a];
   }
   // The walk keeps each axis's state in its own scalars (registers), not in
