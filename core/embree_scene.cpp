@@ -47,9 +47,8 @@ float open_interval_near(float tmin) {
 }
 float open_interval_far(float tmax) { return std::nextafter(tmax, 0.0f); }
 
-// std::nextafter(x, -inf) and (x, +inf) for the cone callback, inline
-// (the libm calls cost Embree about a fifth of its time on rings:4). x is
-// not NaN; tnear >= +denorm_min here and tfar >= tnear.
+// std::nextafter(x, -inf) and (x, +inf) for the cone callback (called per
+// candidate cone), inline. x is not NaN.
 inline float next_down(float x) {
   if (x == 0.0f) return -std::numeric_limits<float>::denorm_min();
   const std::uint32_t b = std::bit_cast<std::uint32_t>(x);
