@@ -119,7 +119,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
     const nodes::ReplicatedResult r = nodes::render_replicated(db, grid, p);
     const double wall = seconds_since(t0);
     const double tp = r.run.parallel_time_s;
-    if (n == 1 || t1 == 0) t1 = n == 1 ? tp : 0;
+    if (n == 1) t1 = tp;
     double work = 0;
     std::uint64_t grants = 0;
     for (const auto& nr : r.run.nodes) work += nr.counters.busy_s;

@@ -47,9 +47,17 @@ std::size_t Mailbox::slot_bytes(std::uint32_t max_payload) {
   return (raw + 63) / 64 * 64;
 }
 
+namespace {
+std::uint32_t rounded_capacity(std::uint32_t capacity) { return std::bit_ceil(std::max<std::uint32_t>(capacity, 2)); }
+}  // namespace
+
+std::size_t Mailbox::bytes_for(std::uint32_t capacity, std::uint32_t max_payload) {
+  return std::size_t(rounded_capacity(capacity)) * slot_bytes(max_payload);
+}
+
 Mailbox::Mailbox(Arena& arena, std::uint32_t capacity, std::uint32_t max_payload)
     : arena_(&arena),
-      capacity_(std::bit_ceil(std::max<std::uint32_t>(capacity, 2))),
+      capacity_(rounded_capacity(capacity)),
       max_payload_(max_payload),
       mask_(capacity_ - 1),
       stride_(slot_bytes(max_payload)) {

@@ -49,6 +49,8 @@ class Mailbox {
   std::size_t bytes() const { return std::size_t(capacity_) * stride_; }
   /// Bytes per slot for a given payload limit (for sizing before creating).
   static std::size_t slot_bytes(std::uint32_t max_payload);
+  /// Arena bytes a mailbox of `capacity` slots of `max_payload` bytes takes.
+  static std::size_t bytes_for(std::uint32_t capacity, std::uint32_t max_payload);
 
   /// Copies the header and the concatenation of `parts` into a free slot and
   /// publishes it. Any thread; lock-free. Returns false, changing nothing,

@@ -86,12 +86,14 @@ void NodeContext::charge(double seconds) {
 }
 
 bool NodeContext::try_run() {
-  if (id_ == kHost) return true;
-  return machine_->scheduler->try_run(id_, now());
+  Scheduler& s = *machine_->scheduler;
+  // Fast path without reading the CPU clock: no scheduling, or the permit is held.
+  if (id_ == kHost || !s.enabled() || s.granted_flag(id_).load(std::memory_order_acquire)) return true;
+  return s.try_run(id_, now());
 }
 
 bool NodeContext::yield_point() {
-  if (id_ == kHost) return true;
+  if (id_ == kHost || !machine_->scheduler->enabled()) return true;
   return machine_->scheduler->yield_point(id_, now());
 }
 
@@ -206,9 +208,7 @@ Message NodeContext::receive(WaitKind kind) {
       release_run();  // blocked: let a waiting node compute
       released = true;
     }
-    sync_compute();
-    mailbox_->wait(machine_->stop);
-    end_messaging();
+    wait_for_mail(0);  // released, so no permit can arrive: only mail or a stop ends it
   }
   if (m.header.arrival_time > clock_) {
     const double gap = m.header.arrival_time - clock_;

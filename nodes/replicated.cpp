@@ -3,7 +3,6 @@
 #include <fmt/core.h>
 
 #include <algorithm>
-#include <bit>
 #include <cstring>
 #include <memory>
 #include <stdexcept>
@@ -90,8 +89,7 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
   // Fail early, with the sizes, when a copy cannot fit beside the mailbox.
   const core::DatabaseArrays host_arrays = core::DatabaseArrays::of(db, grid);
   const std::size_t copy_bytes = replicated_bytes_per_node(db, grid);
-  const std::size_t fixed = Mailbox::slot_bytes(m.max_payload) * std::bit_ceil(std::max(m.mailbox_capacity, 2u)) +
-                            m.max_payload + std::size_t(pixels_payload_bytes(params.item_w, params.item_h, layout.channels)) +
+  const std::size_t fixed = Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload + std::size_t(pixels_payload_bytes(params.item_w, params.item_h, layout.channels)) +
                             sizeof(core::ShadingScratch);
   if (copy_bytes + fixed > m.node_memory)
     throw std::runtime_error(fmt::format(
@@ -177,11 +175,11 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
     });
   };
 
+  out.tracing.resize(m.nodes);
+  out.work.resize(m.nodes);
   out.run = machine.run(node_main, host_main, setup, [&](NodeContext& ctx) {
     // Keep the counters, free the arena's contents.
     if (states[ctx.id()]) {
-      out.tracing.resize(m.nodes);
-      out.work.resize(m.nodes);
       out.tracing[ctx.id()] = states[ctx.id()]->stats;
       out.work[ctx.id()] = states[ctx.id()]->work;
     }
