@@ -8,6 +8,7 @@
 // -> render_frame (the one mode dispatch) -> RenderResult -> image files.
 #include <fmt/core.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdio>
 #include <tuple>
@@ -28,10 +29,13 @@
 #include "core/grid.h"
 #include "core/render.h"
 #include "core/scene_source.h"
+#include "dataflow/dataflow.h"
+#include "imageio/false_color.h"
 #include "imageio/write_image.h"
 #include "nodes/machine.h"
 #include "nodes/network.h"
 #include "nodes/replicated.h"
+#include "svm/svm.h"
 
 namespace raynode::apps {
 
@@ -58,7 +62,34 @@ struct RenderOptions {
   std::string work_item = "3x3";
   double timeout_s = 0;
   double schedule_window_us = 200;
+  // svm
+  std::uint32_t page_size = 1024;
+  std::string cache;  ///< "" = all free memory, "N" pages or "P%" of the database
+  // dataflow
+  int subsample = 8;
+  std::string partition = "balanced";
+  std::uint32_t queue_capacity = 0;  ///< node mailbox slots; 0 = the mode's default
 };
+
+/// --cache: "N" pages or "P%" of the database's pages into params; throws UsageError.
+void parse_cache(const std::string& text, svm::SvmParams& params) {
+  if (text.empty()) return;
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  const std::string rest(end ? end : "");
+  if (end == text.c_str() || !(rest.empty() || rest == "%") || !std::isfinite(v))
+    throw UsageError("--cache must be a page count (e.g. 200) or a percentage of the database (e.g. 10%), got '" +
+                     text + "'");
+  if (rest == "%") {
+    if (!(v > 0 && v <= 100))
+      throw UsageError("--cache percentage must be in (0, 100], got '" + text + "'");
+    params.cache_fraction = v / 100.0;
+  } else {
+    if (!(v >= 1 && v <= 4294967295.0) || v != std::floor(v))
+      throw UsageError("--cache must be at least 1 page (a whole number), got '" + text + "'");
+    params.cache_pages = std::uint32_t(v);
+  }
+}
 
 /// "3x3" -> {3, 3}; throws UsageError.
 std::pair<int, int> parse_work_item(const std::string& text) {
@@ -70,7 +101,7 @@ std::pair<int, int> parse_work_item(const std::string& text) {
   return {w, h};
 }
 
-bool is_node_mode(const std::string& mode) { return mode == "replicated"; }
+bool is_node_mode(const std::string& mode) { return mode == "replicated" || mode == "svm" || mode == "dataflow"; }
 
 /// The emulated machine for the node modes, from the options. Throws UsageError.
 nodes::MachineParams machine_params(const RenderOptions& o) {
@@ -92,7 +123,33 @@ nodes::MachineParams machine_params(const RenderOptions& o) {
 struct FrameExtras {
   nlohmann::json nodes;  ///< the machine report ("nodes" in --stats), null for in-process modes
   core::Image node;      ///< --aov node
+  core::Image pages;     ///< --aov pages (svm)
+  nlohmann::json svm;    ///< the "svm" object of --stats
+  core::Image region;    ///< --aov region (dataflow)
+  nlohmann::json dataflow;  ///< the "dataflow" object of --stats
 };
+
+/// The machine report's keys that every node mode fills the same way.
+void fill_work_stats(const std::vector<nodes::WorkStats>& work, const std::vector<core::RenderStats>& tracing,
+                     const nodes::RunReport& run, int node_count, nlohmann::json& j) {
+  nodes::WorkStats sum;
+  for (const nodes::WorkStats& w : work) sum += w;
+  double busy = 0;
+  for (const nodes::NodeReport& n : run.nodes) busy += n.counters.busy_s;
+  j["work_s"] = busy;
+  // Without a one-node run, T_1 is estimated by the summed busy time.
+  j["efficiency_estimate"] = run.parallel_time_s > 0 ? busy / (double(node_count) * run.parallel_time_s) : 0.0;
+  j["work"] = {{"items_own", sum.items_own},         {"items_received", sum.items_received},
+               {"requests_sent", sum.requests_sent}, {"requests_forwarded", sum.requests_forwarded},
+               {"grants", sum.grants_given},         {"request_hops", sum.request_hops}};
+  for (std::size_t i = 0; i < work.size() && i < j["per_node"].size(); ++i) {
+    auto& e = j["per_node"][i];
+    e["pixels"] = work[i].pixels;
+    e["grants_given"] = work[i].grants_given;
+    e["items_received"] = work[i].items_received;
+    e["rays"] = tracing[i].rays.total();
+  }
+}
 
 /// out.png -> out.depth.exr (same directory).
 std::string aov_path(const std::string& output, const std::string& aov) {
@@ -124,10 +181,35 @@ Accelerator build_accelerator(const std::string& accel, const core::Database& db
 /// modes (replicated, svm, dataflow: --nodes N) get one branch each here.
 /// Throws UsageError for a mode/--nodes combination that makes no sense.
 core::RenderResult render_frame(const RenderOptions& o, const core::Database& db, const Accelerator& accel,
-                                core::RenderParams params, bool node_aov, FrameExtras& extras) {
+                                core::RenderParams params, bool node_aov, bool pages_aov, FrameExtras& extras) {
   if (is_node_mode(o.mode) && accel.embree)
     throw UsageError("--accel embree is for the in-process modes; --mode " + o.mode + " traces with the grid");
-  if (node_aov && !is_node_mode(o.mode)) throw UsageError("--aov node needs a node-emulator mode (--mode replicated)");
+  if (node_aov && !is_node_mode(o.mode))
+    throw UsageError("--aov node needs a node-emulator mode (--mode replicated or svm)");
+  if (pages_aov && o.mode != "svm") throw UsageError("--aov pages needs --mode svm");
+  const bool region_aov = std::find(o.aovs.begin(), o.aovs.end(), "region") != o.aovs.end();
+  if (region_aov && o.mode != "dataflow") throw UsageError("--aov region needs --mode dataflow");
+  if (o.mode == "dataflow") {
+    dataflow::DataflowParams dp;
+    dp.render = params;
+    dp.machine = machine_params(o);
+    dp.machine.mailbox_capacity = o.queue_capacity;
+    dp.subsample = o.subsample;
+    dp.partition = dataflow::parse_partition(o.partition);
+    dp.region_aov = region_aov || node_aov;
+    dataflow::DataflowResult r = dataflow::render_dataflow(db, *accel.grid, dp);
+    extras.nodes = r.run.to_json(true);
+    double busy = 0;
+    for (const nodes::NodeReport& n : r.run.nodes) busy += n.counters.busy_s;
+    extras.nodes["work_s"] = busy;
+    extras.nodes["efficiency_estimate"] =
+        r.run.parallel_time_s > 0 ? busy / (double(o.nodes) * r.run.parallel_time_s) : 0.0;
+    extras.dataflow = r.to_json();
+    if (node_aov) extras.node = r.region;  // region i belongs to node i
+    if (region_aov) extras.region = std::move(r.region);
+    if (params.progress) params.progress->store(std::uint64_t(r.render.color.width) * r.render.color.height);
+    return std::move(r.render);
+  }
   if (o.mode == "replicated") {
     nodes::ReplicatedParams rp;
     rp.render = params;
@@ -136,26 +218,27 @@ core::RenderResult render_frame(const RenderOptions& o, const core::Database& db
     rp.node_aov = node_aov;
     nodes::ReplicatedResult r = nodes::render_replicated(db, *accel.grid, rp);
     extras.nodes = r.run.to_json(true);
-    nodes::WorkStats work;
-    for (const nodes::WorkStats& w : r.work) work += w;
-    double busy = 0;
-    for (const nodes::NodeReport& n : r.run.nodes) busy += n.counters.busy_s;
     extras.nodes["database_bytes_per_node"] = r.database_bytes;
-    extras.nodes["work_s"] = busy;
-    // Without a one-node run, T_1 is estimated by the summed busy time.
-    extras.nodes["efficiency_estimate"] =
-        r.run.parallel_time_s > 0 ? busy / (double(o.nodes) * r.run.parallel_time_s) : 0.0;
-    extras.nodes["work"] = {{"items_own", work.items_own},         {"items_received", work.items_received},
-                            {"requests_sent", work.requests_sent}, {"requests_forwarded", work.requests_forwarded},
-                            {"grants", work.grants_given},         {"request_hops", work.request_hops}};
-    for (std::size_t i = 0; i < r.work.size() && i < extras.nodes["per_node"].size(); ++i) {
-      auto& e = extras.nodes["per_node"][i];
-      e["pixels"] = r.work[i].pixels;
-      e["grants_given"] = r.work[i].grants_given;
-      e["items_received"] = r.work[i].items_received;
-      e["rays"] = r.tracing[i].rays.total();
-    }
+    fill_work_stats(r.work, r.tracing, r.run, o.nodes, extras.nodes);
     extras.node = std::move(r.node);
+    if (params.progress) params.progress->store(std::uint64_t(r.render.color.width) * r.render.color.height);
+    return std::move(r.render);
+  }
+  if (o.mode == "svm") {
+    svm::SvmParams sp;
+    sp.render = params;
+    sp.machine = machine_params(o);
+    std::tie(sp.item_w, sp.item_h) = parse_work_item(o.work_item);
+    sp.page_size = o.page_size;
+    parse_cache(o.cache, sp);
+    sp.node_aov = node_aov;
+    sp.pages_aov = pages_aov;
+    svm::SvmResult r = svm::render_svm(db, *accel.grid, sp);
+    extras.nodes = r.run.to_json(true);
+    fill_work_stats(r.work, r.tracing, r.run, o.nodes, extras.nodes);
+    extras.svm = r.to_json();
+    extras.node = std::move(r.node);
+    extras.pages = std::move(r.pages);
     if (params.progress) params.progress->store(std::uint64_t(r.render.color.width) * r.render.color.height);
     return std::move(r.render);
   }
@@ -177,13 +260,15 @@ void run_render(const RenderOptions& o) {
   params.spp = o.spp;
   params.max_depth = o.max_depth;
   params.min_weight = o.min_weight;
-  bool node_aov = false;
+  bool node_aov = false, pages_aov = false;
   for (const std::string& a : o.aovs) {
     if (a == "node") node_aov = true;
+    else if (a == "pages") pages_aov = true;
+    else if (a == "region") continue;  // dataflow: render_frame reads it from the options
     else if (a == "depth") params.depth_aov = true;
     else if (a == "normal") params.normal_aov = true;
     else if (a == "primitive") params.primitive_aov = true;
-    else throw UsageError("unknown AOV '" + a + "' (supported: depth, normal, primitive, node)");
+    else throw UsageError("unknown AOV '" + a + "' (supported: depth, normal, primitive, node, pages)");
   }
   if (!imageio::is_float_format(o.output) && std::filesystem::path(o.output).extension().empty())
     throw UsageError("output '" + o.output + "' has no extension to choose the image format");
@@ -204,7 +289,7 @@ void run_render(const RenderOptions& o) {
   const std::clock_t c0 = std::clock();
   ProgressLine progress("render", done, pixels, !o.quiet);
   FrameExtras extras;
-  const core::RenderResult result = render_frame(o, db, accel, params, node_aov, extras);
+  const core::RenderResult result = render_frame(o, db, accel, params, node_aov, pages_aov, extras);
   const double cpu_s = double(std::clock() - c0) / CLOCKS_PER_SEC;
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   progress.finish();
@@ -220,6 +305,18 @@ void run_render(const RenderOptions& o) {
   write_aov("normal", result.normal);
   write_aov("primitive", result.primitive);
   write_aov("node", extras.node);
+  write_aov("pages", extras.pages);
+  write_aov("region", extras.region);
+  // Pictures of the node modes' maps beside their data: NAME.node.png, NAME.pages.png.
+  auto write_map = [&](const char* name, const core::Image& picture) {
+    if (picture.empty()) return;
+    std::filesystem::path p(aov_path(o.output, name));
+    p.replace_extension(".png");
+    aov_files.emplace_back(std::string(name) + "_map", p.string());
+    imageio::write_image(p.string(), picture);
+  };
+  if (!extras.node.empty()) write_map("node", imageio::label_map(extras.node));
+  if (!extras.pages.empty()) write_map("pages", imageio::heat_map(extras.pages));
 
   const core::RenderStats& s = result.stats;
   if (!o.stats_path.empty()) {
@@ -279,6 +376,14 @@ void run_render(const RenderOptions& o) {
       extras.nodes.erase("per_node");
       j["machine"] = extras.nodes;
     }
+    if (!extras.svm.is_null()) {
+      j["svm"] = extras.svm;
+      j["svm"]["per_node"] = nullptr;
+      j["svm"].erase("per_node");
+      for (std::size_t i = 0; i < extras.svm["per_node"].size() && i < j["per_node"].size(); ++i)
+        j["per_node"][i]["svm"] = extras.svm["per_node"][i];
+    }
+    if (!extras.dataflow.is_null()) j["dataflow"] = extras.dataflow;
     std::ofstream f(o.stats_path);
     if (!f) throw std::runtime_error("cannot write " + o.stats_path);
     f << j.dump(2) << "\n";
@@ -312,9 +417,11 @@ void register_render_command(CLI::App& app) {
                 "exr/hdr get linear floats")
       ->capture_default_str();
   c->add_option("--mode", o->mode,
-                "sequential (one thread), shared (TBB threads over 16x16 tiles), or replicated (--nodes emulated "
-                "nodes, each with a full database copy in its --node-memory; pixels by submaps and work stealing)")
-      ->check(CLI::IsMember({"sequential", "shared", "replicated"}))
+                "sequential (one thread), shared (TBB threads over 16x16 tiles), replicated (--nodes emulated "
+                "nodes, each with a full database copy in its --node-memory; pixels by submaps and work stealing), "
+                "or svm (the paper's shared virtual memory: the database paged over the nodes' memories, LRU page "
+                "caches, same pixel distribution)")
+      ->check(CLI::IsMember({"sequential", "shared", "replicated", "svm", "dataflow"}))
       ->capture_default_str();
   c->add_option("--nodes", o->nodes,
                 "Emulated nodes (threads with private memories), for the node-emulator modes (replicated); "
@@ -349,9 +456,30 @@ void register_render_command(CLI::App& app) {
                 "(NAME.normal.exr: unit shading normal facing the eye, 0 on a miss), primitive "
                 "(NAME.primitive.exr: file-order index of the NFF shape hit, counting p/pp/s/c statements "
                 "from 0 after --tessellate, -1 on a miss), node (node modes: NAME.node.exr, id of the node that "
-                "computed the pixel, as in the paper's Figure 6)")
+                "computed the pixel, and NAME.node.png, one colour per node, as in the paper's Figure 6), pages "
+                "(svm: NAME.pages.exr, distinct pages touched per pixel, and NAME.pages.png, its heat map)")
       ->delimiter(',')
-      ->check(CLI::IsMember({"depth", "normal", "primitive", "node"}));
+      ->check(CLI::IsMember({"depth", "normal", "primitive", "node", "pages", "region"}));
+  c->add_option("--page-size", o->page_size,
+                "svm: bytes per page of the shared virtual memory, a power of two from 64 (the paper: 1024)")
+      ->capture_default_str();
+  c->add_option("--cache", o->cache,
+                "svm: page cache per node, N pages or P% of the database's pages (default: all the memory a node "
+                "has left after its home pages, page table and mailbox)");
+  c->add_option("--subsample", o->subsample,
+                "dataflow: load estimate traces one pixel per NxN block (8 = the paper's 1.5%); --aov region "
+                "(NAME.region.exr) shows the region of each primary hit, -1 on a miss")
+      ->check(CLI::Range(1, 4096))
+      ->capture_default_str();
+  c->add_option("--partition", o->partition,
+                "dataflow: balanced (median cuts on the estimated load, the paper's method) or equal (equal-size "
+                "regions, the paper's comparison)")
+      ->check(CLI::IsMember({"balanced", "equal"}))
+      ->capture_default_str();
+  c->add_option("--queue-capacity", o->queue_capacity,
+                "dataflow: slots of each node's mailbox (default 1024); a ray for a full mailbox goes to the host, "
+                "which forwards it later (1 forces spills)")
+      ->check(CLI::Range(1, 1 << 20));
   c->add_option("--node-memory", o->node_memory,
                 "Node modes: memory budget per node (B, KiB, MiB, GiB; the iPSC/2 node had 4 MiB)")
       ->capture_default_str();

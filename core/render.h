@@ -117,7 +117,7 @@ PixelResult render_pixel(const View& view, const ShadingContext& ctx, const Came
     ++scratch.stats.rays.primary;
     Hit hit;
     if (intersect_closest(view, r, hit, scratch.traversal)) {
-      const Primitive& prim = view.primitive(hit.primitive);
+      const Primitive prim = view.primitive(hit.primitive);  // a copy: see trace_ray
       out.first = FirstHit{hit.t, surface_frame(view, prim, r, hit).ns, std::int64_t(prim.shape)};
     }
   }

@@ -219,7 +219,9 @@ Vec3 trace_ray(const View& view, const ShadingContext& ctx, const Ray& ray, int 
     if (first_hit) *first_hit = FirstHit{};
     return ctx.background;
   }
-  const Primitive& prim = view.primitive(hit.primitive);
+  // A copy: a paged view may evict the page behind a returned reference on
+  // its next access (vertex normals, shadow rays), see traverse.h.
+  const Primitive prim = view.primitive(hit.primitive);
   const Material& m = view.material(prim.material);
   const SurfaceFrame f = surface_frame(view, prim, ray, hit);
   const Vec3& d = f.d;

@@ -12,7 +12,11 @@
 // and, for shading (shade.h), per-object data beside the primitives:
 //   const Material& material(std::uint32_t id) const;
 //   const TriangleNormals& vertex_normals(std::uint32_t id) const;
-// DirectView (direct_view.h) is the plain-array one.
+// DirectView (direct_view.h) is the plain-array one. A reference a view
+// returns may be valid only until the view's next call (svm's PagedView
+// evicts pages): callers keep a copy of what they need across calls, and
+// material() returns node-replicated data. for_each_in_cell must cope with
+// f() calling primitive() (PagedView re-resolves its list page).
 #pragma once
 
 #include <cmath>

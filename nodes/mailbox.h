@@ -72,6 +72,10 @@ class Mailbox {
   /// flag (release or stronger) first, then call wake().
   void wake();
 
+  /// Owner thread only: is a published message waiting? Lock-free, no
+  /// system call (one acquire load): the cheap check before a poll.
+  bool has_message() const { return nonempty_for_consumer(); }
+
   /// Approximate number of queued messages (any thread; for statistics).
   std::uint32_t approximate_size() const;
 

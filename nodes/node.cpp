@@ -47,10 +47,12 @@ NodeContext::NodeContext(MachineState& machine, NodeId id, std::size_t budget, s
       mailbox_(std::make_unique<Mailbox>(arena_, mailbox_capacity, max_payload)),
       receive_buffer_(arena_, max_payload, "its receive buffer"),
       backlog_(&arena_),
+      deferred_(&arena_),
       backlog_current_(&arena_) {}
 
 NodeContext::~NodeContext() {
   backlog_.clear();
+  deferred_.clear();
   backlog_current_ = std::pmr::vector<std::byte>(&arena_);
 }
 
@@ -187,7 +189,7 @@ bool NodeContext::poll(Message& out) {
     Parked p = std::move(backlog_.front());
     backlog_.pop_front();
     backlog_current_ = std::move(p.payload);
-    out = take(p.header, backlog_current_);
+    out = p.counted ? Message{p.header, backlog_current_} : take(p.header, backlog_current_);
     got = true;
   } else {
     MessageHeader h;
@@ -198,6 +200,25 @@ bool NodeContext::poll(Message& out) {
   }
   end_messaging();
   return got;
+}
+
+void NodeContext::defer(const Message& m) {
+  deferred_.push_back(
+      Parked{m.header, std::pmr::vector<std::byte>(m.payload.begin(), m.payload.end(), &arena_), true});
+  counters_.backlog_peak = std::max<std::uint64_t>(counters_.backlog_peak, backlog_.size() + deferred_.size());
+}
+
+void NodeContext::resume_deferred() {
+  while (!deferred_.empty()) {
+    backlog_.push_front(std::move(deferred_.back()));
+    deferred_.pop_back();
+  }
+}
+
+void NodeContext::advance_to(double t, WaitKind kind) {
+  if (t <= clock_) return;
+  (kind == WaitKind::kIdle ? counters_.idle_s : counters_.communication_s) += t - clock_;
+  clock_ = t;
 }
 
 Message NodeContext::receive(WaitKind kind) {

@@ -161,6 +161,21 @@ class NodeContext {
   /// The next message if one is queued, without waiting and without moving
   /// the clock (interrupt-level handling: use header.arrival_time).
   bool poll(Message& out);
+  /// Cheap check (no clock sample, no system call): may poll() return a
+  /// message? False negatives only for mail published after the call.
+  bool has_mail() const { return !backlog_.empty() || mailbox_->has_message(); }
+  /// Sets a received message aside (a copy in the arena) so that poll()
+  /// and receive() skip it until resume_deferred(): for a handler that
+  /// waits for one kind of message (svm's page reply) and must leave the
+  /// others (work requests, grants) to the main loop, in their order.
+  void defer(const Message& m);
+  /// Puts the deferred messages back in front of the incoming mail, in the
+  /// order they were deferred.
+  void resume_deferred();
+  /// Moves the clock to `t` if it is behind, booking the gap as `kind`:
+  /// what receive() does on a message, for handlers that took the message
+  /// with poll() (interrupt level) but had to wait for it.
+  void advance_to(double t, WaitKind kind);
   /// Blocks until mail may be there, a run permit was granted, or
   /// `timeout_s` wall seconds passed (0 = no limit), without taking the
   /// mail and without moving the clock. Throws RunAborted.
@@ -183,8 +198,10 @@ class NodeContext {
   struct Parked {
     MessageHeader header;
     std::pmr::vector<std::byte> payload;
+    bool counted = false;  ///< already in the received counters (deferred after a poll)
   };
   std::pmr::deque<Parked> backlog_;
+  std::pmr::deque<Parked> deferred_;  ///< set aside by defer(), not seen by poll()
   std::pmr::vector<std::byte> backlog_current_;
   double clock_ = 0;
   double cpu_mark_ = 0;

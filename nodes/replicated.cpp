@@ -10,6 +10,7 @@
 #include "core/camera.h"
 #include "core/direct_view.h"
 #include "core/shade.h"
+#include "nodes/pixel_record.h"
 
 namespace raynode::nodes {
 
@@ -52,17 +53,6 @@ struct NodeState {
   }
 };
 
-/// Channels per pixel sent to the host: RGB, then the requested AOVs.
-struct Layout {
-  std::uint32_t channels = 3;
-  int depth = -1, normal = -1, primitive = -1;
-  explicit Layout(const core::RenderParams& p) {
-    if (p.depth_aov) depth = int(channels++);
-    if (p.normal_aov) normal = int(channels), channels += 3;
-    if (p.primitive_aov) primitive = int(channels++);
-  }
-};
-
 }  // namespace
 
 std::size_t replicated_bytes_per_node(const core::Database& db, const core::Grid& grid) {
@@ -79,7 +69,7 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
   const int w = rp.width > 0 ? rp.width : cam_view.width;
   const int h = rp.height > 0 ? rp.height : cam_view.height;
   const core::Camera camera(cam_view, w, h);
-  const Layout layout(rp);
+  const PixelLayout layout(rp);
 
   MachineParams mp = params.machine;
   mp.max_payload = std::max(mp.max_payload, pixels_payload_bytes(params.item_w, params.item_h, layout.channels));
@@ -142,16 +132,8 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
                                for (int x = r.x0; x < r.x1; ++x) {
                                  const core::PixelResult px =
                                      core::render_pixel(view, shading, s.camera, x, y, s.render.spp, first, scratch);
-                                 *o++ = px.color.x;
-                                 *o++ = px.color.y;
-                                 *o++ = px.color.z;
-                                 if (layout.depth >= 0) *o++ = px.first.t;
-                                 if (layout.normal >= 0) {
-                                   *o++ = px.first.normal.x;
-                                   *o++ = px.first.normal.y;
-                                   *o++ = px.first.normal.z;
-                                 }
-                                 if (layout.primitive >= 0) *o++ = float(px.first.shape);
+                                 layout.pack(px, o);
+                                 o += layout.channels;
                                }
                              send_pixels(c, r, layout.channels,
                                          std::span<const float>(s.pixels.data(), std::size_t(r.area()) * layout.channels));
@@ -166,10 +148,7 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
       const float* p = px.data();
       for (int y = r.y0; y < r.y1; ++y)
         for (int x = r.x0; x < r.x1; ++x, p += ch) {
-          std::memcpy(out.render.color.at(x, y), p, 3 * sizeof(float));
-          if (layout.depth >= 0) *out.render.depth.at(x, y) = p[layout.depth];
-          if (layout.normal >= 0) std::memcpy(out.render.normal.at(x, y), p + layout.normal, 3 * sizeof(float));
-          if (layout.primitive >= 0) *out.render.primitive.at(x, y) = p[layout.primitive];
+          layout.unpack(p, x, y, out.render);
           if (params.node_aov) *out.node.at(x, y) = float(src);
         }
     });

@@ -1,0 +1,157 @@
+#include "svm/paged_database.h"
+
+#include <fmt/core.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <bit>
+#include <cerrno>
+#include <cstring>
+#include <new>
+#include <stdexcept>
+#include <system_error>
+#include <utility>
+
+namespace raynode::svm {
+
+namespace {
+
+/// Places every non-empty cell list in the lists segment (file comment's
+/// rule) and calls place(cell, address). Returns the segment's used bytes.
+template <class Place>
+std::uint64_t place_lists(const core::Grid& grid, std::uint32_t page_size, Place&& place) {
+  std::uint64_t cursor = 0;
+  const std::uint32_t cells = grid.info.cell_count();
+  for (std::uint32_t c = 0; c < cells; ++c) {
+    const std::uint64_t n = grid.cell_start[c + 1] - grid.cell_start[c];
+    if (n == 0) continue;
+    const std::uint64_t bytes = n * sizeof(std::uint32_t);
+    const std::uint64_t room = page_size - (cursor & (page_size - 1));
+    if (bytes > room && bytes <= page_size) cursor += room;  // keep a short list in one page
+    if (cursor + bytes > 0xffffffffull)
+      throw std::length_error(fmt::format("svm: the cell lists need more than 4 GiB ({} ids)", grid.references()));
+    place(c, std::uint32_t(cursor));
+    cursor += bytes;
+  }
+  return cursor;
+}
+
+std::uint32_t pages_for(std::uint64_t bytes, std::uint32_t page_size) {
+  return std::uint32_t((bytes + page_size - 1) / page_size);
+}
+
+}  // namespace
+
+PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, std::uint32_t page_size) {
+  if (page_size < kMinPageSize || page_size > kMaxPageSize || !std::has_single_bit(page_size))
+    throw std::invalid_argument(fmt::format(
+        "page size must be a power of two from {} B (one primitive record) to {} B, got {} B", kMinPageSize,
+        kMaxPageSize, page_size));
+  PageLayout l;
+  l.page_size = page_size;
+  l.page_shift = std::uint32_t(std::countr_zero(page_size));
+  l.cells = grid.info.cell_count();
+  l.primitives = std::uint32_t(db.primitives.size());
+  l.normal_sets = std::uint32_t(db.vertex_normals.size());
+  l.list_ids = std::uint32_t(grid.cell_primitives.size());
+  l.directory_shift = std::uint32_t(std::countr_zero(page_size / std::uint32_t(sizeof(DirectoryEntry))));
+  l.primitive_shift = std::uint32_t(std::countr_zero(page_size / std::uint32_t(sizeof(core::Primitive))));
+  l.normals_per_page = page_size / std::uint32_t(sizeof(core::TriangleNormals));
+
+  const std::uint64_t list_bytes = place_lists(grid, page_size, [](std::uint32_t, std::uint32_t) {});
+  const std::uint64_t dir_pages = (std::uint64_t(l.cells) + (1u << l.directory_shift) - 1) >> l.directory_shift;
+  const std::uint64_t list_pages = pages_for(list_bytes, page_size);
+  const std::uint64_t prim_pages = (std::uint64_t(l.primitives) + (1u << l.primitive_shift) - 1) >> l.primitive_shift;
+  const std::uint64_t normal_pages =
+      l.normals_per_page ? (std::uint64_t(l.normal_sets) + l.normals_per_page - 1) / l.normals_per_page : 0;
+  if (l.normal_sets > 0 && l.normals_per_page == 0)
+    throw std::invalid_argument(fmt::format("page size {} B cannot hold a 36-byte vertex-normal record", page_size));
+  const std::uint64_t total = dir_pages + list_pages + prim_pages + normal_pages;
+  if (total >= 0xffffffffull)
+    throw std::length_error(fmt::format("svm: the database needs {} pages of {} B, more than 2^32", total, page_size));
+  l.directory_first = 0;
+  l.directory_pages = std::uint32_t(dir_pages);
+  l.list_first = l.directory_first + l.directory_pages;
+  l.list_pages = std::uint32_t(list_pages);
+  l.primitive_first = l.list_first + l.list_pages;
+  l.primitive_pages = std::uint32_t(prim_pages);
+  l.normals_first = l.primitive_first + l.primitive_pages;
+  l.normals_pages = std::uint32_t(normal_pages);
+  l.pages = std::uint32_t(total);
+  l.object_bytes = std::uint64_t(l.cells) * sizeof(DirectoryEntry) + std::uint64_t(l.list_ids) * sizeof(std::uint32_t) +
+                   std::uint64_t(l.primitives) * sizeof(core::Primitive) +
+                   std::uint64_t(l.normal_sets) * sizeof(core::TriangleNormals);
+  return l;
+}
+
+PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, std::uint32_t page_size) {
+  PagedImage image;
+  image.layout = make_page_layout(db, grid, page_size);
+  const PageLayout& l = image.layout;
+  image.pages = HostPages(std::size_t(l.bytes()));
+  std::byte* base = image.pages.data();
+  auto at = [&](std::uint32_t page, std::uint32_t offset) { return base + (std::size_t(page) << l.page_shift) + offset; };
+
+  // Directory and lists.
+  std::byte* lists = at(l.list_first, 0);
+  place_lists(grid, page_size, [&](std::uint32_t c, std::uint32_t address) {
+    const std::uint32_t begin = grid.cell_start[c], end = grid.cell_start[c + 1];
+    const DirectoryEntry e{end - begin, address};
+    std::memcpy(at(l.directory_page(c), l.directory_offset(c)), &e, sizeof e);
+    std::memcpy(lists + address, grid.cell_primitives.data() + begin, std::size_t(end - begin) * sizeof(std::uint32_t));
+  });
+  // Primitives, then vertex normals.
+  for (std::uint32_t id = 0; id < l.primitives; ++id)
+    std::memcpy(at(l.primitive_page(id), l.primitive_offset(id)), &db.primitives[id], sizeof(core::Primitive));
+  for (std::uint32_t id = 0; id < l.normal_sets; ++id)
+    std::memcpy(at(l.normals_page(id), l.normals_offset(id)), &db.vertex_normals[id], sizeof(core::TriangleNormals));
+  return image;
+}
+
+// --- HostPages -----------------------------------------------------------
+
+HostPages::HostPages(std::size_t bytes) : size_(bytes) {
+  if (bytes == 0) return;
+  const std::size_t sys = std::size_t(sysconf(_SC_PAGESIZE));
+  mapped_ = (bytes + sys - 1) / sys * sys;
+  void* p = mmap(nullptr, mapped_, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+  if (p == MAP_FAILED) throw std::bad_alloc();
+  data_ = static_cast<std::byte*>(p);
+}
+
+HostPages::HostPages(HostPages&& o) noexcept
+    : data_(std::exchange(o.data_, nullptr)),
+      size_(std::exchange(o.size_, 0)),
+      mapped_(std::exchange(o.mapped_, 0)),
+      protected_(std::exchange(o.protected_, false)) {}
+
+HostPages& HostPages::operator=(HostPages&& o) noexcept {
+  if (this != &o) {
+    this->~HostPages();
+    data_ = std::exchange(o.data_, nullptr);
+    size_ = std::exchange(o.size_, 0);
+    mapped_ = std::exchange(o.mapped_, 0);
+    protected_ = std::exchange(o.protected_, false);
+  }
+  return *this;
+}
+
+HostPages::~HostPages() {
+  if (data_) munmap(data_, mapped_);
+  data_ = nullptr;
+}
+
+void HostPages::protect() {
+  if (!data_ || protected_) return;
+  if (mprotect(data_, mapped_, PROT_NONE) != 0) throw std::system_error(errno, std::generic_category(), "mprotect");
+  protected_ = true;
+}
+
+void HostPages::unprotect() {
+  if (!data_ || !protected_) return;
+  if (mprotect(data_, mapped_, PROT_READ | PROT_WRITE) != 0)
+    throw std::system_error(errno, std::generic_category(), "mprotect");
+  protected_ = false;
+}
+
+}  // namespace raynode::svm

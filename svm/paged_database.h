@@ -1,0 +1,142 @@
+// The shared virtual memory's contents: the whole tracing database laid out
+// in fixed-size pages by the host (paper, "Distributing data": object
+// paging, "an object belongs to one and only one page"; DESIGN.md, "svm").
+//
+// Place in the data flow: Database + Grid (host) -> build_paged_image ->
+// PagedImage (PageLayout + every page's bytes) -> each node's setup copies
+// its home pages (page p lives on node p mod N: dealt evenly, round robin,
+// no locality strategy) -> the image is protected and freed; nodes reach
+// objects only through their pager (pager.h) and PagedView (paged_view.h).
+//
+// Segments, in page order (each starts on a page boundary):
+//   directory  one 8-byte DirectoryEntry per grid cell (the "voxels"):
+//              how many primitives the cell lists and where its list starts;
+//   lists      the cells' primitive ids (4 bytes each), packed in cell
+//              order; a list that does not fit in the rest of the current
+//              page but fits in one page starts on a fresh page, a longer
+//              list continues page after page (a chain of per-page pieces,
+//              each an object in one page);
+//   primitives the 64-byte Primitive records, page_size/64 per page;
+//   normals    the 36-byte TriangleNormals of `pp` triangles,
+//              floor(page_size/36) per page.
+// Only O(1) metadata is replicated on every node instead: GridInfo,
+// materials, lights, camera, background, and this layout.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include "core/database.h"
+#include "core/grid.h"
+
+namespace raynode::svm {
+
+/// One grid cell's entry in the paged cell directory.
+struct DirectoryEntry {
+  std::uint32_t count = 0;  ///< primitives listed in the cell
+  std::uint32_t list = 0;   ///< byte address of the first id in the lists segment (0 when count == 0)
+};
+static_assert(sizeof(DirectoryEntry) == 8);
+
+/// Smallest page: one Primitive record.
+inline constexpr std::uint32_t kMinPageSize = sizeof(core::Primitive);
+/// Largest page (a page travels in one message).
+inline constexpr std::uint32_t kMaxPageSize = 1u << 20;
+
+/// Where every object lies: page numbers and offsets, for the host's
+/// builder and every node's view. Plain data, replicated on every node.
+struct PageLayout {
+  std::uint32_t page_size = 1024;  ///< bytes, a power of two in [kMinPageSize, kMaxPageSize]
+  std::uint32_t page_shift = 10;   ///< log2(page_size)
+  std::uint32_t pages = 0;         ///< pages in the shared virtual memory
+
+  std::uint32_t directory_first = 0, directory_pages = 0;
+  std::uint32_t list_first = 0, list_pages = 0;
+  std::uint32_t primitive_first = 0, primitive_pages = 0;
+  std::uint32_t normals_first = 0, normals_pages = 0;
+
+  std::uint32_t directory_shift = 0;   ///< log2(directory entries per page)
+  std::uint32_t primitive_shift = 0;   ///< log2(primitives per page)
+  std::uint32_t normals_per_page = 0;  ///< TriangleNormals per page
+
+  std::uint32_t cells = 0, primitives = 0, normal_sets = 0, list_ids = 0;
+  std::uint64_t object_bytes = 0;  ///< bytes of all objects, without the unused tails of pages
+
+  /// Bytes of the shared virtual memory (pages x page size).
+  std::uint64_t bytes() const { return std::uint64_t(pages) * page_size; }
+  /// The home node of a page among `nodes`, and the page's index there.
+  static std::uint32_t home(std::uint32_t page, std::uint32_t nodes) { return page % nodes; }
+  static std::uint32_t home_slot(std::uint32_t page, std::uint32_t nodes) { return page / nodes; }
+  /// Pages whose home is `node`.
+  std::uint32_t home_pages(std::uint32_t node, std::uint32_t nodes) const {
+    return node < pages ? (pages - node + nodes - 1) / nodes : 0;
+  }
+
+  std::uint32_t directory_page(std::uint32_t cell) const { return directory_first + (cell >> directory_shift); }
+  std::uint32_t directory_offset(std::uint32_t cell) const {
+    return (cell & ((1u << directory_shift) - 1)) * std::uint32_t(sizeof(DirectoryEntry));
+  }
+  std::uint32_t primitive_page(std::uint32_t id) const { return primitive_first + (id >> primitive_shift); }
+  std::uint32_t primitive_offset(std::uint32_t id) const {
+    return (id & ((1u << primitive_shift) - 1)) * std::uint32_t(sizeof(core::Primitive));
+  }
+  std::uint32_t normals_page(std::uint32_t id) const { return normals_first + id / normals_per_page; }
+  std::uint32_t normals_offset(std::uint32_t id) const {
+    return (id % normals_per_page) * std::uint32_t(sizeof(core::TriangleNormals));
+  }
+  std::uint32_t list_page(std::uint32_t address) const { return list_first + (address >> page_shift); }
+  std::uint32_t list_offset(std::uint32_t address) const { return address & (page_size - 1); }
+};
+
+/// Builds the layout for a database and grid. Throws std::invalid_argument
+/// when page_size is not a power of two in [kMinPageSize, kMaxPageSize],
+/// and std::length_error when the database needs more than 2^32 pages or
+/// its lists more than 4 GiB.
+PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, std::uint32_t page_size);
+
+/// Page-aligned host memory (mmap) that can be made unreadable: the host's
+/// copy of the shared virtual memory, protected once the nodes are loaded
+/// so that a node thread reading it faults instead of cheating.
+class HostPages {
+ public:
+  HostPages() = default;
+  /// `bytes` zeroed bytes. Throws std::bad_alloc.
+  explicit HostPages(std::size_t bytes);
+  HostPages(HostPages&& o) noexcept;
+  HostPages& operator=(HostPages&& o) noexcept;
+  HostPages(const HostPages&) = delete;
+  HostPages& operator=(const HostPages&) = delete;
+  ~HostPages();
+
+  std::byte* data() { return data_; }
+  const std::byte* data() const { return data_; }
+  std::size_t size() const { return size_; }
+  /// Makes every byte unreadable (PROT_NONE) until unprotect(). Throws
+  /// std::system_error.
+  void protect();
+  void unprotect();
+  bool is_protected() const { return protected_; }
+
+ private:
+  std::byte* data_ = nullptr;
+  std::size_t size_ = 0;
+  std::size_t mapped_ = 0;
+  bool protected_ = false;
+};
+
+/// The host's image of the shared virtual memory.
+struct PagedImage {
+  PageLayout layout;
+  HostPages pages;  ///< layout.pages x page_size bytes
+
+  std::span<const std::byte> page(std::uint32_t p) const {
+    return {pages.data() + std::size_t(p) * layout.page_size, layout.page_size};
+  }
+};
+
+/// Lays out `db` and `grid` in pages as described in the file comment.
+/// Same errors as make_page_layout.
+PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, std::uint32_t page_size);
+
+}  // namespace raynode::svm

@@ -1,0 +1,79 @@
+// PagedView: the database view of svm mode (DESIGN.md, "One tracer,
+// several data views"). Every object the one tracer reads — a cell's
+// directory entry, the pieces of its primitive list, a primitive, a
+// triangle's vertex normals — is found through the node's page table
+// (pager.h) at the place the host's layout put it (paged_database.h); a
+// page that is not resident is a page fault. Materials and the grid's O(1)
+// description are replicated on the node.
+//
+// Because the bytes are the host's records, copied page by page, and the
+// traversal and shading code are the same, images are bit-identical to
+// sequential mode.
+//
+// Reference lifetime: primitive() and vertex_normals() return references
+// into a frame that the next access may evict (a one-page cache does so
+// every time); the tracer uses them before its next view call
+// (core/traverse.h). for_each_in_cell re-finds its list page when a call of
+// f() evicted something.
+//
+// Thread safety: owner node thread only.
+#pragma once
+
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+#include <span>
+
+#include "core/database.h"
+#include "core/grid.h"
+#include "svm/pager.h"
+
+namespace raynode::svm {
+
+class PagedView {
+ public:
+  /// `materials` live in the node's arena (replicated metadata).
+  PagedView(Pager& pager, const core::GridInfo& grid, std::span<const core::Material> materials)
+      : pager_(&pager), layout_(pager.layout()), grid_(grid), materials_(materials) {}
+
+  const core::GridInfo& grid_info() const { return grid_; }
+
+  template <class F>
+  void for_each_in_cell(std::uint32_t cell, F&& f) const {
+    DirectoryEntry e;
+    std::memcpy(&e, pager_->access<ObjectKind::kDirectory>(layout_.directory_page(cell)) + layout_.directory_offset(cell), sizeof e);
+    std::uint32_t address = e.list, left = e.count;
+    while (left > 0) {
+      const std::uint32_t page = layout_.list_page(address), offset = layout_.list_offset(address);
+      const std::uint32_t n = std::min(left, (layout_.page_size - offset) / std::uint32_t(sizeof(std::uint32_t)));
+      const std::uint32_t* ids = reinterpret_cast<const std::uint32_t*>(pager_->access<ObjectKind::kList>(page) + offset);
+      std::uint64_t epoch = pager_->epoch();
+      for (std::uint32_t i = 0; i < n; ++i) {
+        f(ids[i]);
+        if (pager_->epoch() != epoch) [[unlikely]] {  // f() evicted a page: find the list again
+          ids = reinterpret_cast<const std::uint32_t*>(pager_->access<ObjectKind::kList>(page) + offset);
+          epoch = pager_->epoch();
+        }
+      }
+      left -= n;
+      address += n * std::uint32_t(sizeof(std::uint32_t));
+    }
+  }
+  const core::Primitive& primitive(std::uint32_t id) const {
+    return *reinterpret_cast<const core::Primitive*>(pager_->access<ObjectKind::kPrimitive>(layout_.primitive_page(id)) +
+                                                     layout_.primitive_offset(id));
+  }
+  const core::Material& material(std::uint32_t id) const { return materials_[id]; }
+  const core::TriangleNormals& vertex_normals(std::uint32_t id) const {
+    return *reinterpret_cast<const core::TriangleNormals*>(pager_->access<ObjectKind::kNormals>(layout_.normals_page(id)) +
+                                                           layout_.normals_offset(id));
+  }
+
+ private:
+  Pager* pager_;
+  const PageLayout& layout_;
+  core::GridInfo grid_;
+  std::span<const core::Material> materials_;
+};
+
+}  // namespace raynode::svm

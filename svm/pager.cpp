@@ -1,0 +1,183 @@
+#include "svm/pager.h"
+
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <cstring>
+#include <stdexcept>
+
+namespace raynode::svm {
+
+PagerStats& PagerStats::operator+=(const PagerStats& o) {
+  accesses += o.accesses;
+  cache_accesses += o.cache_accesses;
+  misses += o.misses;
+  evictions += o.evictions;
+  requests_served += o.requests_served;
+  pixels += o.pixels;
+  pixel_pages += o.pixel_pages;
+  pixel_pages_max = std::max(pixel_pages_max, o.pixel_pages_max);
+  home_pages += o.home_pages;
+  cache_pages += o.cache_pages;
+  return *this;
+}
+
+std::size_t pager_table_bytes(const PageLayout& layout, std::uint32_t cache_pages) {
+  return std::size_t(layout.pages) * 8 + std::size_t(cache_pages) * 12;
+}
+
+Pager::Pager(nodes::NodeContext& ctx, const PageLayout& layout, std::uint32_t cache_pages)
+    : ctx_(ctx),
+      layout_(layout),
+      nodes_(ctx.node_count()),
+      home_frames_(layout.home_pages(ctx.id(), ctx.node_count())),
+      cache_frames_(cache_pages),
+      table_(ctx.arena(), layout.pages, "its page table"),
+      lru_(ctx.arena(), cache_pages, "its LRU links"),
+      lines_(ctx.arena(), (std::size_t(home_frames_) + cache_pages) * (layout.page_size / sizeof(Line)),
+             "its home pages and page cache") {
+  static_assert(sizeof(PageEntry) == 8 && sizeof(LruLink) == 12, "pager_table_bytes counts these sizes");
+  frames_ = reinterpret_cast<std::byte*>(lines_.data());
+  for (std::uint32_t s = 0; s < home_frames_; ++s) table_[std::size_t(s) * nodes_ + ctx.id()].frame = s;
+  stats_.home_pages = home_frames_;
+  stats_.cache_pages = cache_frames_;
+}
+
+std::byte* Pager::home_frame(std::uint32_t page) {
+  if (page >= layout_.pages || PageLayout::home(page, nodes_) != ctx_.id())
+    throw std::logic_error(fmt::format("{} is not the home of page {}", nodes::node_name(ctx_.id()), page));
+  return frames_ + (std::size_t(PageLayout::home_slot(page, nodes_)) << layout_.page_shift);
+}
+
+void Pager::unlink(std::uint32_t f) {
+  LruLink& l = link(f);
+  if (l.prev != kNone) link(l.prev).next = l.next;
+  else mru_ = l.next;
+  if (l.next != kNone) link(l.next).prev = l.prev;
+  else lru_tail_ = l.prev;
+  l.prev = l.next = kNone;
+}
+
+void Pager::push_front(std::uint32_t f) {
+  LruLink& l = link(f);
+  l.prev = kNone;
+  l.next = mru_;
+  if (mru_ != kNone) link(mru_).prev = f;
+  mru_ = f;
+  if (lru_tail_ == kNone) lru_tail_ = f;
+}
+
+void Pager::touch(std::uint32_t f) {
+  unlink(f);
+  push_front(f);
+}
+
+void Pager::end_pixel() {
+  if (!in_pixel_) return;
+  ++stats_.pixels;
+  stats_.pixel_pages += pixel_pages_;
+  stats_.pixel_pages_max = std::max(stats_.pixel_pages_max, pixel_pages_);
+  in_pixel_ = false;
+}
+
+void Pager::begin_pixel() {
+  end_pixel();
+  if (++pixel_stamp_ == 0) {  // wrapped: forget every stamp
+    for (std::size_t p = 0; p < table_.size(); ++p) table_[p].stamp = 0;
+    pixel_stamp_ = 1;
+  }
+  pixel_pages_ = 0;
+  in_pixel_ = true;
+  flush_tlb();  // the first access of each page in a pixel goes through the page table (stamps)
+  // Interrupt level: answer page requests that came in while we computed
+  // (one acquire load when there is no mail).
+  if (ctx_.has_mail()) {
+    nodes::Message m;
+    while (ctx_.poll(m)) serve_or_defer(m);
+    ctx_.resume_deferred();
+  }
+}
+
+void Pager::serve_or_defer(const nodes::Message& m) {
+  if (!serve(m)) ctx_.defer(m);
+}
+
+bool Pager::serve(const nodes::Message& m) {
+  if (m.type() == nodes::MessageType::kPageReply)
+    throw std::logic_error(fmt::format("{}: a page reply from {} while no page fault waits",
+                                       nodes::node_name(ctx_.id()), nodes::node_name(m.source())));
+  if (m.type() != nodes::MessageType::kPageRequest) return false;
+  const std::uint32_t page = m.as<PageRequestMsg>().page;
+  if (page >= layout_.pages || PageLayout::home(page, nodes_) != ctx_.id())
+    throw std::logic_error(fmt::format("{}: {} asked for page {}, which does not live here",
+                                       nodes::node_name(ctx_.id()), nodes::node_name(m.source()), page));
+  const double service = ctx_.network().service_s;
+  ctx_.charge(service);
+  const std::byte* bytes = frames_ + (std::size_t(PageLayout::home_slot(page, nodes_)) << layout_.page_shift);
+  ctx_.send(m.source(), nodes::MessageType::kPageReply, PageReplyMsg{page},
+            std::span<const std::byte>(bytes, layout_.page_size), m.header.arrival_time + service);
+  ++stats_.requests_served;
+  return true;
+}
+
+const std::byte* Pager::fault(std::uint32_t page) {
+  if (page >= layout_.pages)
+    throw std::logic_error(fmt::format("{}: access to page {} of {}", nodes::node_name(ctx_.id()), page,
+                                       layout_.pages));
+  if (cache_frames_ == 0)
+    throw std::logic_error(fmt::format("{}: page {} is not home and the node has no cache",
+                                       nodes::node_name(ctx_.id()), page));
+  ++stats_.misses;
+  // The victim: a free cache frame, else the least recently used page.
+  std::uint32_t victim;
+  if (cache_used_ < cache_frames_) {
+    victim = home_frames_ + cache_used_++;
+  } else {
+    victim = lru_tail_;
+    unlink(victim);
+    table_[link(victim).page].frame = kNotResident;
+    flush_tlb();
+    link(victim).page = kNone;
+    ++stats_.evictions;
+  }
+
+  const nodes::NodeId home = PageLayout::home(page, nodes_);
+  ctx_.send(home, nodes::MessageType::kPageRequest, PageRequestMsg{page});
+  ctx_.release_run();  // blocked: let another node compute meanwhile
+  std::byte* frame = frames_ + (std::size_t(victim) << layout_.page_shift);
+  double arrival = 0;
+  bool got = false;
+  nodes::Message m;
+  while (!got) {
+    if (!ctx_.poll(m)) {
+      ctx_.wait_for_mail(0);
+      continue;
+    }
+    if (m.type() == nodes::MessageType::kPageReply) {
+      const std::uint32_t p = m.as<PageReplyMsg>().page;
+      const std::span<const std::byte> bytes = m.tail<PageReplyMsg>();
+      if (p != page || m.source() != home || bytes.size() != layout_.page_size)
+        throw std::logic_error(fmt::format("{}: waiting for page {} from {}, got page {} ({} B) from {}",
+                                           nodes::node_name(ctx_.id()), page, nodes::node_name(home), p,
+                                           bytes.size(), nodes::node_name(m.source())));
+      std::memcpy(frame, bytes.data(), layout_.page_size);
+      arrival = m.header.arrival_time;
+      got = true;
+    } else {
+      serve_or_defer(m);
+    }
+  }
+  ctx_.advance_to(arrival, nodes::WaitKind::kCommunication);
+  link(victim).page = page;
+  push_front(victim);
+  table_[page].frame = victim;
+  // Compute again only with a run permit, answering requests meanwhile.
+  while (!ctx_.try_run()) {
+    ctx_.wait_for_mail(0);
+    while (ctx_.poll(m)) serve_or_defer(m);
+  }
+  ctx_.resume_deferred();
+  return frame;
+}
+
+}  // namespace raynode::svm

@@ -1,0 +1,208 @@
+// A node's side of the shared virtual memory: its page table, its home
+// pages, an LRU page cache and the page-fault protocol (paper,
+// "Distributing data"; DESIGN.md, "svm").
+//
+// Place in the data flow: svm's setup builds one Pager per node in the
+// node's arena and copies the node's home pages into it; PagedView
+// (paged_view.h) turns every object access of the one tracer into
+// access(page); a page that is neither home nor cached is a page fault:
+// the pager sends a page request to the page's home node and waits for the
+// reply, serving other nodes' page requests meanwhile and setting every
+// other message aside for the work loop (no deadlock: page service never
+// waits for anything). The victim frame is the least recently used cache
+// page ("LRU ... at no extra cost" in the paper: the choice is O(1)).
+//
+// Virtual time: a request departs at the faulting node's clock; the home
+// node answers at interrupt level, at the request's arrival plus the
+// network's service cost, charged to the home node; the faulting node's
+// clock becomes the reply's arrival, the gap booked as communication time.
+// While it waits it gives its run permit back (nodes/scheduler.h).
+//
+// Memory (all in the node's arena): the page table (8 bytes per page of the
+// whole database), the home pages, the cache frames and 12 bytes of LRU
+// links per cache frame.
+//
+// Thread safety: owner node thread only (setup runs on the host's thread
+// before the node starts).
+#pragma once
+
+#include <cstdint>
+
+#include "nodes/node.h"
+#include "svm/paged_database.h"
+
+namespace raynode::svm {
+
+/// Messages of the pager protocol (wire size = sizeof, + the page).
+struct PageRequestMsg {
+  std::uint32_t page;
+};
+/// Header of a kPageReply message; followed by the page's bytes.
+struct PageReplyMsg {
+  std::uint32_t page;
+};
+
+/// Counters of one node's pager.
+struct PagerStats {
+  std::uint64_t accesses = 0;        ///< object accesses through the page table
+  std::uint64_t cache_accesses = 0;  ///< accesses to pages that are not home pages
+  std::uint64_t misses = 0;          ///< page faults: pages fetched from their home node
+  std::uint64_t evictions = 0;       ///< cached pages dropped to make room (LRU)
+  std::uint64_t requests_served = 0; ///< other nodes' page requests answered
+  std::uint64_t pixels = 0;          ///< pixels begun (begin_pixel)
+  std::uint64_t pixel_pages = 0;     ///< distinct pages touched, summed over the pixels
+  std::uint32_t pixel_pages_max = 0; ///< most distinct pages one pixel touched
+  std::uint32_t home_pages = 0;      ///< pages this node is home of
+  std::uint32_t cache_pages = 0;     ///< cache frames
+
+  std::uint64_t hits() const { return accesses - misses; }
+  /// Faults per access, 0..1 (0 with no access).
+  double miss_ratio() const { return accesses ? double(misses) / double(accesses) : 0.0; }
+  /// Faults per access to a non-home page (the cache's own miss ratio).
+  double cache_miss_ratio() const { return cache_accesses ? double(misses) / double(cache_accesses) : 0.0; }
+  /// The paper's "average pages per pixel" (Table 2).
+  double pages_per_pixel() const { return pixels ? double(pixel_pages) / double(pixels) : 0.0; }
+  PagerStats& operator+=(const PagerStats& o);
+};
+
+/// The kinds of object a view reads; each keeps its own one-entry
+/// translation cache (TLB) in the pager.
+enum class ObjectKind : int { kDirectory = 0, kList, kPrimitive, kNormals };
+inline constexpr int kObjectKinds = 4;
+
+/// Arena bytes a pager needs besides its frames: page table and LRU links.
+std::size_t pager_table_bytes(const PageLayout& layout, std::uint32_t cache_pages);
+
+class Pager {
+ public:
+  /// Takes the page table, the node's home frames and `cache_pages` cache
+  /// frames from ctx's arena (throws nodes::ArenaExhausted). The home
+  /// frames are zero until load_home_page().
+  Pager(nodes::NodeContext& ctx, const PageLayout& layout, std::uint32_t cache_pages);
+  Pager(const Pager&) = delete;
+  Pager& operator=(const Pager&) = delete;
+
+  /// Setup: the frame of home page `page`, to copy its bytes into.
+  /// Throws std::logic_error if this node is not its home.
+  std::byte* home_frame(std::uint32_t page);
+
+  /// The bytes of `page` (page_size of them, 64-byte aligned), valid until
+  /// the next eviction (epoch() changes), for an object of kind `K`. Faults
+  /// when it is not resident. Every call counts as an access and keeps the
+  /// LRU order exact; a repeated access to the page the same kind read last
+  /// takes a short path (a one-entry TLB per kind, flushed at each pixel
+  /// and eviction), the others go through the page table. Throws what the
+  /// messaging throws (nodes::RunAborted) and std::logic_error on a
+  /// protocol error.
+  template <ObjectKind K>
+  const std::byte* access(std::uint32_t page) {
+    Tlb& t = tlb_[int(K)];
+    if (t.page == page) [[likely]] {
+      ++stats_.accesses;
+      if (t.frame >= home_frames_) cache_hit(t.frame);
+      return t.data;
+    }
+    return lookup(t, page);
+  }
+  /// access() for tests and callers without a kind.
+  const std::byte* access(std::uint32_t page) { return lookup(tlb_[0], page); }
+  /// Changes whenever a resident page is evicted: a pointer from access()
+  /// is still valid while the epoch is unchanged.
+  std::uint64_t epoch() const { return stats_.evictions; }
+
+  /// Starts a pixel: ends the previous pixel's count of distinct pages
+  /// (folding it into the counters) and answers page requests that wait.
+  void begin_pixel();
+  /// Ends the current pixel's count (as begin_pixel does, without serving).
+  void end_pixel();
+  /// Distinct pages touched since the last begin_pixel().
+  std::uint32_t pixel_pages() const { return pixel_pages_; }
+
+  /// Serves `m` if it is a page request (interrupt level: the reply leaves
+  /// at its arrival + the network's service cost); returns false for any
+  /// other message. Throws std::logic_error for a page this node is not
+  /// home of, or a page reply nobody waits for.
+  bool serve(const nodes::Message& m);
+
+  const PageLayout& layout() const { return layout_; }
+  const PagerStats& stats() const { return stats_; }
+  /// Is `page` resident (home or cached)? For tests.
+  bool resident(std::uint32_t page) const { return table_[page].frame != kNotResident; }
+
+ private:
+  static constexpr std::uint32_t kNotResident = 0xffffffffu;
+  static constexpr std::uint32_t kNone = 0xffffffffu;
+  struct PageEntry {
+    std::uint32_t frame = kNotResident;  ///< frame index, or kNotResident
+    std::uint32_t stamp = 0;             ///< pixel stamp of the last touch
+  };
+  struct LruLink {
+    std::uint32_t prev = kNone, next = kNone;  ///< frame indices, towards MRU / LRU
+    std::uint32_t page = kNone;                ///< page in the frame
+  };
+  struct alignas(64) Line {
+    std::byte bytes[64];
+  };
+
+  struct Tlb {
+    std::uint32_t page = kNone;
+    std::uint32_t frame = kNone;
+    const std::byte* data = nullptr;
+  };
+  /// The page-table path of access(): counts, stamps, LRU, fault; fills `t`.
+  /// Out of line (also under the tracer's [[gnu::flatten]]), so that the
+  /// traversal loop keeps only the TLB check.
+  [[gnu::noinline]] const std::byte* lookup(Tlb& t, std::uint32_t page) {
+    PageEntry& e = table_[page];
+    if (e.stamp != pixel_stamp_) {
+      e.stamp = pixel_stamp_;
+      ++pixel_pages_;
+    }
+    ++stats_.accesses;
+    std::uint32_t f = e.frame;
+    const std::byte* data;
+    if (f == kNotResident) [[unlikely]] {
+      ++stats_.cache_accesses;
+      data = fault(page);
+      f = e.frame;
+    } else {
+      if (f >= home_frames_) cache_hit(f);
+      data = frames_ + (std::size_t(f) << layout_.page_shift);
+    }
+    t = Tlb{page, f, data};
+    return data;
+  }
+  void cache_hit(std::uint32_t f) {
+    ++stats_.cache_accesses;
+    if (f != mru_) touch(f);
+  }
+  [[gnu::noinline]] void touch(std::uint32_t frame);
+  void flush_tlb() {
+    for (Tlb& t : tlb_) t.page = kNone;
+  }
+  [[gnu::noinline]] const std::byte* fault(std::uint32_t page);
+  void unlink(std::uint32_t frame);
+  void push_front(std::uint32_t frame);
+  LruLink& link(std::uint32_t frame) { return lru_[frame - home_frames_]; }
+  /// Answers waiting page requests; defers other messages.
+  void serve_or_defer(const nodes::Message& m);
+
+  nodes::NodeContext& ctx_;
+  PageLayout layout_;
+  std::uint32_t nodes_;
+  std::uint32_t home_frames_;
+  std::uint32_t cache_frames_;
+  std::uint32_t cache_used_ = 0;
+  std::uint32_t mru_ = kNone, lru_tail_ = kNone;
+  nodes::ArenaArray<PageEntry> table_;
+  nodes::ArenaArray<LruLink> lru_;
+  nodes::ArenaArray<Line> lines_;
+  std::byte* frames_ = nullptr;
+  Tlb tlb_[kObjectKinds];
+  std::uint32_t pixel_stamp_ = 1;
+  std::uint32_t pixel_pages_ = 0;
+  bool in_pixel_ = false;
+  PagerStats stats_;
+};
+
+}  // namespace raynode::svm

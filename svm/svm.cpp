@@ -1,0 +1,303 @@
+#include "svm/svm.h"
+
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+#include "core/camera.h"
+#include "core/shade.h"
+#include "nodes/pixel_record.h"
+#include "svm/paged_view.h"
+
+namespace raynode::svm {
+
+using nodes::NodeContext;
+using nodes::Rect;
+
+namespace {
+
+/// Arena bytes kept free for messages parked at run time (a blocking send
+/// parks the node's incoming mail; a page fault sets work messages aside).
+std::size_t message_reserve(std::uint32_t max_payload) { return 32 * 1024 + 2 * std::size_t(max_payload); }
+
+/// Copies `src` into a new array in `arena`.
+template <class T>
+nodes::ArenaArray<T> copy_to(nodes::Arena& arena, std::span<const T> src, const char* what) {
+  nodes::ArenaArray<T> a(arena, src.size(), what);
+  if (!src.empty()) std::memcpy(static_cast<void*>(a.data()), src.data(), src.size_bytes());
+  return a;
+}
+
+/// What a node holds besides the pager: O(1) metadata by value, the
+/// replicated materials and lights in its arena.
+struct NodeState {
+  NodeState(const core::GridInfo& g, const core::Camera& c, const core::Vec3& bg, const core::RenderParams& p,
+            const Rect& submap)
+      : grid(g), camera(c), background(bg), render(p), submap(submap) {}
+  core::GridInfo grid;
+  core::Camera camera;
+  core::Vec3 background;
+  core::RenderParams render;
+  Rect submap;
+  nodes::ArenaArray<core::Material> materials;
+  nodes::ArenaArray<core::Light> lights;
+  nodes::ArenaArray<float> pixels;  ///< one work item's outgoing pixels
+  Pager* pager = nullptr;
+  core::ShadingScratch* scratch = nullptr;
+  nodes::Arena* arena = nullptr;
+  core::RenderStats stats;
+  nodes::WorkStats work;
+  PagerStats pager_stats;
+
+  ~NodeState() {
+    if (arena) {
+      arena->destroy(scratch);
+      arena->destroy(pager);
+    }
+  }
+};
+
+/// Everything the run needs from the host, none of it the host's scene.
+struct RunInput {
+  const PagedImage* image;
+  core::GridInfo grid;
+  std::span<const core::Material> materials;
+  std::span<const core::Light> lights;
+  core::Vec3 background;
+  core::Camera camera;
+};
+
+}  // namespace
+
+PagerStats SvmResult::pager_total() const {
+  PagerStats t;
+  for (const PagerStats& p : pager) t += p;
+  return t;
+}
+
+std::uint32_t cache_frames_for(const PageLayout& layout, const SvmParams& params, std::uint32_t node,
+                               std::size_t fixed) {
+  const std::uint32_t n = params.machine.nodes;
+  const std::size_t budget = params.machine.node_memory;
+  const std::size_t ps = layout.page_size;
+  const std::size_t frame_cost = ps + 12;  // frame + LRU links
+  const std::uint32_t home = layout.home_pages(node, n);
+  const std::uint32_t useful = layout.pages - home;  // more cache than this is never used
+  const std::size_t home_bytes = std::size_t(home) * ps;
+  const std::size_t need_min = fixed + home_bytes + (useful > 0 ? frame_cost : 0);
+  if (need_min > budget) {
+    const std::size_t per_node_pages =
+        budget > fixed + (n > 1 ? frame_cost : 0) ? (budget - fixed - (n > 1 ? frame_cost : 0)) / ps : 0;
+    const std::size_t hold = per_node_pages * ps * n;
+    throw std::runtime_error(fmt::format(
+        "svm mode: the database needs {} ({} pages of {} B), {} nodes x {} hold {} for pages (each node keeps {} "
+        "for its page table, mailbox and buffers{}); use more nodes, more --node-memory or a smaller scene",
+        nodes::format_bytes(layout.bytes()), layout.pages, ps, n, nodes::format_bytes(budget),
+        nodes::format_bytes(hold), nodes::format_bytes(fixed), n > 1 ? ", and one cache page" : ""));
+  }
+  const std::size_t fit = (budget - fixed - home_bytes) / frame_cost;
+  const bool explicit_cache = params.cache_pages > 0 || params.cache_fraction > 0;
+  if (!explicit_cache) return std::uint32_t(std::min<std::size_t>(fit, useful));
+  std::uint64_t want = params.cache_pages;
+  if (params.cache_fraction > 0)
+    want = std::max<std::uint64_t>(1, std::uint64_t(std::ceil(params.cache_fraction * double(layout.pages))));
+  want = std::min<std::uint64_t>(want, useful);
+  if (want > fit)
+    throw std::runtime_error(fmt::format(
+        "svm mode: a cache of {} pages of {} B does not fit in {}: --node-memory is {}, its {} home pages take {} "
+        "and its page table, mailbox and buffers {}, which leaves room for {} cache pages",
+        want, ps, nodes::node_name(node), nodes::format_bytes(budget), home, nodes::format_bytes(home_bytes),
+        nodes::format_bytes(fixed), fit));
+  return std::uint32_t(want);
+}
+
+SvmResult render_svm(const core::Database& db, const core::Grid& grid, const SvmParams& params) {
+  const core::RenderParams& rp = params.render;
+  if (rp.spp < 1) throw std::invalid_argument("spp must be >= 1");
+  if (rp.max_depth < 1) throw std::invalid_argument("max depth must be >= 1");
+  if (params.item_w < 1 || params.item_h < 1)
+    throw std::invalid_argument(fmt::format("work item must be at least 1x1, got {}x{}", params.item_w, params.item_h));
+  if (!(params.cache_fraction >= 0 && params.cache_fraction <= 1))
+    throw std::invalid_argument(fmt::format("cache fraction must be in (0, 1], got {}", params.cache_fraction));
+
+  const core::View cam_view = core::render_view(db);
+  const int w = rp.width > 0 ? rp.width : cam_view.width;
+  const int h = rp.height > 0 ? rp.height : cam_view.height;
+
+  // The host lays the database out in pages. From here on the run sees only
+  // the image and the O(1) metadata (RunInput), never `db` or `grid`.
+  PagedImage image = build_paged_image(db, grid, params.page_size);
+  const RunInput in{&image, grid.info, db.materials, db.lights, db.background, core::Camera(cam_view, w, h)};
+  const PageLayout& layout = image.layout;
+
+  nodes::PixelLayout pixel_layout(rp);
+  const int pages_channel = params.pages_aov ? pixel_layout.add_channel() : -1;
+  const std::uint32_t item_bytes = nodes::pixels_payload_bytes(params.item_w, params.item_h, pixel_layout.channels);
+  nodes::MachineParams mp = params.machine;
+  mp.max_payload = std::max({mp.max_payload, item_bytes, std::uint32_t(sizeof(PageReplyMsg) + layout.page_size)});
+  nodes::Machine machine(mp);  // validates the node count
+  const nodes::MachineParams& m = machine.params();
+
+  SvmResult out;
+  out.layout = layout;
+  const std::uint32_t item_floats = std::uint32_t(params.item_w * params.item_h) * pixel_layout.channels;
+  out.node_fixed_bytes = nodes::Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload +
+                         std::size_t(layout.pages) * 8 + sizeof(Pager) + in.materials.size_bytes() +
+                         in.lights.size_bytes() + item_floats * sizeof(float) + sizeof(core::ShadingScratch) +
+                         message_reserve(m.max_payload);
+  // Fail before starting, with the sizes, when a node cannot hold its part.
+  std::vector<std::uint32_t> cache(m.nodes);
+  SvmParams sized = params;
+  sized.machine = m;
+  for (std::uint32_t i = 0; i < m.nodes; ++i) cache[i] = cache_frames_for(layout, sized, i, out.node_fixed_bytes);
+
+  out.render.color = core::Image(w, h, 3);
+  if (rp.depth_aov) out.render.depth = core::Image(w, h, 1);
+  if (rp.normal_aov) out.render.normal = core::Image(w, h, 3);
+  if (rp.primitive_aov) out.render.primitive = core::Image(w, h, 1);
+  if (params.node_aov) out.node = core::Image(w, h, 1);
+  if (params.pages_aov) out.pages = core::Image(w, h, 1);
+
+  const std::vector<Rect> submaps = nodes::make_submaps(w, h, m.nodes);
+  std::vector<std::unique_ptr<NodeState>> states(m.nodes);
+  HostPages& host_pages = image.pages;
+
+  // The load phase (outside virtual time): each node gets its home pages
+  // and the metadata; after the last node the host's image is protected.
+  auto setup = [&](NodeContext& ctx) {
+    nodes::Arena& a = ctx.arena();
+    auto s = std::make_unique<NodeState>(in.grid, in.camera, in.background, rp, submaps[ctx.id()]);
+    s->arena = &a;
+    s->materials = copy_to(a, in.materials, "the materials");
+    s->lights = copy_to(a, in.lights, "the lights");
+    s->pixels = nodes::ArenaArray<float>(a, item_floats, "its pixel buffer");
+    s->scratch = a.create<core::ShadingScratch>("its tracing scratch");
+    s->pager = a.create<Pager>("its pager", ctx, layout, cache[ctx.id()]);
+    for (std::uint32_t p = ctx.id(); p < layout.pages; p += m.nodes)
+      std::memcpy(s->pager->home_frame(p), in.image->page(p).data(), layout.page_size);
+    states[ctx.id()] = std::move(s);
+    if (ctx.id() + 1 == m.nodes) host_pages.protect();
+  };
+
+  auto node_main = [&](NodeContext& ctx) {
+    NodeState& s = *states[ctx.id()];
+    Pager& pager = *s.pager;
+    if (params.debug_read_host_image && ctx.id() == 0) {
+      volatile const std::byte* cheat = in.image->pages.data();
+      (void)*cheat;  // must fault: the image is protected
+    }
+    const PagedView view(pager, s.grid, s.materials.span());
+    const core::ShadingContext shading = core::make_shading_context(
+        std::span<const core::Light>(s.lights.span()), s.background, s.render.max_depth, s.render.min_weight);
+    core::ShadingScratch& scratch = *s.scratch;
+    const bool first = s.render.any_aov();
+    s.work = nodes::run_work_farm(
+        ctx, s.submap, params.item_w, params.item_h,
+        [&](NodeContext& c, const Rect& r) {
+          float* o = s.pixels.data();
+          for (int y = r.y0; y < r.y1; ++y)
+            for (int x = r.x0; x < r.x1; ++x) {
+              pager.begin_pixel();
+              const core::PixelResult px =
+                  core::render_pixel(view, shading, s.camera, x, y, s.render.spp, first, scratch);
+              pixel_layout.pack(px, o);
+              if (pages_channel >= 0) o[pages_channel] = float(pager.pixel_pages());
+              o += pixel_layout.channels;
+            }
+          pager.end_pixel();
+          nodes::send_pixels(c, r, pixel_layout.channels,
+                             std::span<const float>(s.pixels.data(), std::size_t(r.area()) * pixel_layout.channels));
+        },
+        [&](NodeContext&, const nodes::Message& msg) { return pager.serve(msg); });
+    s.stats = scratch.stats;
+    s.stats.traversal = scratch.traversal.stats;
+    s.pager_stats = pager.stats();
+  };
+
+  auto host_main = [&](NodeContext& host) {
+    nodes::gather_pixels(host, [&](nodes::NodeId src, const Rect& r, std::uint32_t ch, std::span<const float> px) {
+      if (ch != pixel_layout.channels) throw std::logic_error("host: pixel message with the wrong channel count");
+      const float* p = px.data();
+      for (int y = r.y0; y < r.y1; ++y)
+        for (int x = r.x0; x < r.x1; ++x, p += ch) {
+          pixel_layout.unpack(p, x, y, out.render);
+          if (params.node_aov) *out.node.at(x, y) = float(src);
+          if (pages_channel >= 0) *out.pages.at(x, y) = p[pages_channel];
+        }
+    });
+  };
+
+  out.tracing.resize(m.nodes);
+  out.work.resize(m.nodes);
+  out.pager.resize(m.nodes);
+  try {
+    out.run = machine.run(node_main, host_main, setup, [&](NodeContext& ctx) {
+      if (states[ctx.id()]) {  // keep the counters, free the arena's contents
+        out.tracing[ctx.id()] = states[ctx.id()]->stats;
+        out.work[ctx.id()] = states[ctx.id()]->work;
+        out.pager[ctx.id()] = states[ctx.id()]->pager_stats;
+      }
+      states[ctx.id()].reset();
+    });
+  } catch (...) {
+    host_pages.unprotect();
+    throw;
+  }
+  host_pages.unprotect();
+  for (const core::RenderStats& s : out.tracing) out.render.stats += s;
+  return out;
+}
+
+nlohmann::json SvmResult::to_json() const {
+  const PagerStats t = pager_total();
+  const double tp = run.parallel_time_s;
+  auto page_bytes = [](const nodes::NodeCounters& c) {
+    return c.received[std::size_t(nodes::MessageType::kPageReply)].bytes;
+  };
+  auto node_json = [&](const PagerStats& p, const nodes::NodeCounters& c) {
+    return nlohmann::json{{"home_pages", p.home_pages},
+                          {"cache_pages", p.cache_pages},
+                          {"accesses", p.accesses},
+                          {"hits", p.hits()},
+                          {"misses", p.misses},
+                          {"miss_ratio", p.miss_ratio()},
+                          {"cache_accesses", p.cache_accesses},
+                          {"cache_miss_ratio", p.cache_miss_ratio()},
+                          {"evictions", p.evictions},
+                          {"page_requests", c.sent[std::size_t(nodes::MessageType::kPageRequest)].messages},
+                          {"page_requests_served", p.requests_served},
+                          {"page_bytes_received", page_bytes(c)},
+                          {"pixels", p.pixels},
+                          {"pages_per_pixel", p.pages_per_pixel()},
+                          {"pixel_pages_max", p.pixel_pages_max}};
+  };
+  nodes::NodeCounters total;
+  for (const nodes::NodeReport& n : run.nodes) total += n.counters;
+  nlohmann::json j = node_json(t, total);
+  j["database_bytes"] = layout.object_bytes;
+  j["shared_memory_bytes"] = layout.bytes();
+  j["page_size"] = layout.page_size;
+  j["pages_total"] = layout.pages;
+  j["pages"] = {{"directory", layout.directory_pages},
+                {"lists", layout.list_pages},
+                {"primitives", layout.primitive_pages},
+                {"normals", layout.normals_pages}};
+  j["node_fixed_bytes"] = node_fixed_bytes;
+  j["communication_rate_bytes_per_s"] = tp > 0 ? double(page_bytes(total)) / tp : 0.0;
+  nlohmann::json per = nlohmann::json::array();
+  for (std::size_t i = 0; i < pager.size() && i < run.nodes.size(); ++i) {
+    nlohmann::json e = node_json(pager[i], run.nodes[i].counters);
+    const double ti = run.nodes[i].work_done_s > 0 ? run.nodes[i].work_done_s : run.nodes[i].clock_s;
+    e["communication_rate_bytes_per_s"] = ti > 0 ? double(page_bytes(run.nodes[i].counters)) / ti : 0.0;
+    per.push_back(std::move(e));
+  }
+  j["per_node"] = std::move(per);
+  return j;
+}
+
+}  // namespace raynode::svm

@@ -1,0 +1,84 @@
+// `--mode svm`: the paper's control-oriented algorithm (section "Shared
+// virtual memory", Tables 2 and 3, Figures 5-10). Every node runs the
+// sequential tracer over the whole database, which lives in a read-only
+// shared virtual memory of fixed-size pages spread over all nodes' memories:
+// each node keeps its home pages and caches others' pages it reads (LRU);
+// pixels are distributed as square submaps plus 3x3 work items stolen
+// along the ring (nodes/work.h).
+//
+// Place in the data flow: host Database + Grid -> build_paged_image
+// (paged_database.h) -> setup: each node's arena gets its page table, home
+// pages, cache frames and the replicated metadata (grid description,
+// materials, lights, camera) -> the host's image is protected (mprotect)
+// -> node: PagedView over its Pager -> core::render_pixel per pixel ->
+// kPixels messages -> host frame buffer. The arithmetic is the sequential
+// tracer's on the same bytes, so the image is bit-identical to
+// `--mode sequential` for every node count and cache size.
+#pragma once
+
+#include <cstdint>
+#include <nlohmann/json_fwd.hpp>
+#include <vector>
+
+#include "core/database.h"
+#include "core/grid.h"
+#include "core/render.h"
+#include "nodes/machine.h"
+#include "nodes/work.h"
+#include "svm/pager.h"
+#include "svm/paged_database.h"
+
+namespace raynode::svm {
+
+struct SvmParams {
+  core::RenderParams render;      ///< resolution, spp, depth, AOVs (mode and tile size ignored)
+  nodes::MachineParams machine;   ///< nodes, memory, network, topology (payload sized automatically)
+  std::int32_t item_w = 3;        ///< work item, pixels (--work-item WxH)
+  std::int32_t item_h = 3;
+  std::uint32_t page_size = 1024; ///< bytes (--page-size), a power of two >= 64
+  /// Cache frames per node (--cache N): 0 = all the room the node's memory
+  /// has left after its home pages, page table, mailbox and buffers.
+  std::uint32_t cache_pages = 0;
+  /// Cache as a fraction of the database's pages (--cache P%), used when > 0.
+  double cache_fraction = 0;
+  bool node_aov = false;   ///< image of which node computed each pixel (the paper's Figure 6)
+  bool pages_aov = false;  ///< image of the distinct pages each pixel touched
+  /// Test of the no-cheating rule: node 0 reads the host's (protected)
+  /// page image during the run, which must kill the process (SIGSEGV).
+  bool debug_read_host_image = false;
+};
+
+struct SvmResult {
+  core::RenderResult render;               ///< image, AOVs, counters summed over the nodes
+  core::Image node;                        ///< 1 channel: node that computed each pixel (node_aov)
+  core::Image pages;                       ///< 1 channel: distinct pages touched per pixel (pages_aov)
+  nodes::RunReport run;                    ///< machine counters and virtual times
+  std::vector<nodes::WorkStats> work;      ///< per node
+  std::vector<core::RenderStats> tracing;  ///< per node
+  std::vector<PagerStats> pager;           ///< per node
+  PageLayout layout;                       ///< the shared virtual memory's layout
+  std::size_t node_fixed_bytes = 0;        ///< per node: page table, mailbox, buffers, metadata
+
+  /// Pager counters summed over the nodes.
+  PagerStats pager_total() const;
+  /// The "svm" object of --stats: database_bytes, pages_total, page_size,
+  /// cache pages, hits, misses, miss_ratio, evictions, page requests and
+  /// bytes, pages_per_pixel, communication rate (bytes per virtual second),
+  /// and "per_node" (the same per node).
+  nlohmann::json to_json() const;
+};
+
+/// Cache frames node `node` gets (see SvmParams::cache_pages), or throws
+/// std::runtime_error naming the sizes when the node cannot hold its home
+/// pages and the cache it needs. `fixed` = its other arena bytes.
+std::uint32_t cache_frames_for(const PageLayout& layout, const SvmParams& params, std::uint32_t node,
+                               std::size_t fixed);
+
+/// Renders `db` in svm mode. Throws std::runtime_error before starting when
+/// the database does not fit ("svm mode: the database needs X, N nodes x M
+/// hold Y ...") or a requested cache does not fit; std::invalid_argument
+/// for bad parameters (page size, work item, spp); nodes::NodeError for
+/// failures inside the run.
+SvmResult render_svm(const core::Database& db, const core::Grid& grid, const SvmParams& params);
+
+}  // namespace raynode::svm

@@ -1,0 +1,156 @@
+#include <doctest/doctest.h>
+
+#include <cstring>
+#include <stdexcept>
+
+#include "nodes/machine.h"
+#include "svm/pager.h"
+#include "svm_test_support.h"
+
+using namespace raynode;
+using namespace raynode::svm;
+
+namespace {
+
+/// Runs `client` on node 0 with a pager of `cache` frames over `image`
+/// dealt to 2 nodes; node 1 serves page requests until node 0 is done.
+void with_two_nodes(const PagedImage& image, std::uint32_t cache,
+                    const std::function<void(Pager&, nodes::NodeContext&)>& client,
+                    const nodes::NetworkModel& network = {}) {
+  nodes::MachineParams mp;
+  mp.nodes = 2;
+  mp.node_memory = 4 * nodes::kMiB;
+  mp.max_payload = sizeof(PageReplyMsg) + image.layout.page_size;
+  mp.timeout_s = 60;
+  mp.network = network;
+  nodes::Machine machine(mp);
+  machine.run(
+      [&](nodes::NodeContext& ctx) {
+        Pager pager(ctx, image.layout, ctx.id() == 0 ? cache : 0);
+        for (std::uint32_t p = ctx.id(); p < image.layout.pages; p += 2)
+          std::memcpy(pager.home_frame(p), image.page(p).data(), image.layout.page_size);
+        if (ctx.id() == 0) {
+          client(pager, ctx);
+          ctx.send(1, nodes::MessageType::kTest, std::uint32_t(0));
+        } else {
+          while (true) {
+            const nodes::Message m = ctx.receive(nodes::WaitKind::kIdle);
+            if (m.type() == nodes::MessageType::kTest) break;
+            REQUIRE(pager.serve(m));
+          }
+        }
+      },
+      [](nodes::NodeContext&) {});
+}
+
+}  // namespace
+
+TEST_CASE("pager: a miss fetches the page's bytes from its home node; LRU evicts the least recently used page") {
+  const testing::BuiltScene b = testing::build_spd("teapot", 2);
+  const PagedImage image = build_paged_image(b.db, b.grid, 64);
+  REQUIRE(image.layout.pages > 8);
+  with_two_nodes(image, 2, [&](Pager& pager, nodes::NodeContext&) {
+    auto same = [&](std::uint32_t p) { return std::memcmp(pager.access(p), image.page(p).data(), 64) == 0; };
+    const std::uint32_t A = 1, B = 3, C = 5;  // homed at node 1
+    CHECK(same(0));                            // home: no fault
+    CHECK(pager.stats().misses == 0);
+    CHECK(same(A));
+    CHECK(same(B));
+    CHECK(same(A));  // hit; A is now more recent than B
+    CHECK(pager.stats().misses == 2);
+    CHECK(same(C));  // cache full: evicts B, the LRU page
+    CHECK(pager.resident(A));
+    CHECK(!pager.resident(B));
+    CHECK(pager.resident(C));
+    CHECK(same(B));  // evicts A
+    CHECK(!pager.resident(A));
+    CHECK(pager.resident(C));
+    CHECK(pager.stats().misses == 4);
+    CHECK(pager.stats().evictions == 2);
+    CHECK(pager.stats().accesses == 6);
+    CHECK(pager.stats().cache_accesses == 5);
+    CHECK(pager.resident(0));
+  });
+}
+
+TEST_CASE("pager: typed accesses keep exact LRU order through the TLB short path") {
+  const testing::BuiltScene b = testing::build_spd("teapot", 2);
+  const PagedImage image = build_paged_image(b.db, b.grid, 64);
+  with_two_nodes(image, 2, [&](Pager& pager, nodes::NodeContext&) {
+    const std::uint32_t A = 1, B = 3, C = 5;
+    pager.begin_pixel();
+    pager.access<ObjectKind::kPrimitive>(A);
+    pager.access<ObjectKind::kList>(B);
+    pager.access<ObjectKind::kPrimitive>(A);  // TLB hit, must still make A the most recent
+    pager.access<ObjectKind::kDirectory>(C);  // evicts B, not A
+    CHECK(pager.resident(A));
+    CHECK(!pager.resident(B));
+    CHECK(pager.stats().accesses == 4);
+    CHECK(pager.pixel_pages() == 3);
+    pager.end_pixel();
+    CHECK(pager.stats().pixels == 1);
+    CHECK(pager.stats().pixel_pages == 3);
+  });
+}
+
+TEST_CASE("pager: pages per pixel counts distinct pages, home and remote, and restarts at each pixel") {
+  const testing::BuiltScene b = testing::build_spd("teapot", 2);
+  const PagedImage image = build_paged_image(b.db, b.grid, 64);
+  with_two_nodes(image, 4, [&](Pager& pager, nodes::NodeContext&) {
+    pager.begin_pixel();
+    for (std::uint32_t p : {0u, 0u, 2u, 1u, 1u, 3u, 0u}) pager.access<ObjectKind::kPrimitive>(p);
+    CHECK(pager.pixel_pages() == 4);
+    pager.begin_pixel();
+    pager.access<ObjectKind::kList>(2);
+    pager.access<ObjectKind::kList>(2);
+    CHECK(pager.pixel_pages() == 1);
+    pager.end_pixel();
+    CHECK(pager.stats().pixels == 2);
+    CHECK(pager.stats().pixel_pages == 5);
+    CHECK(pager.stats().pixel_pages_max == 4);
+    CHECK(pager.stats().pages_per_pixel() == doctest::Approx(2.5));
+  });
+}
+
+TEST_CASE("pager: a fault waits for the reply in virtual time: 2 latencies + service, booked as communication") {
+  const testing::BuiltScene b = testing::build_spd("teapot", 2);
+  const PagedImage image = build_paged_image(b.db, b.grid, 64);
+  nodes::NetworkModel net;
+  net.latency_s = 1.0;
+  net.service_s = 0.5;
+  with_two_nodes(
+      image, 1,
+      [&](Pager& pager, nodes::NodeContext& ctx) {
+        const double t0 = ctx.now();
+        pager.access(1);
+        const double t1 = ctx.now();
+        CHECK(t1 - t0 >= 2.49);
+        CHECK(t1 - t0 < 2.6);
+        CHECK(ctx.counters().communication_s >= 2.49);
+        pager.access(1);  // resident: no wait
+        CHECK(ctx.now() - t1 < 0.05);
+      },
+      net);
+}
+
+TEST_CASE("pager: a request for a page that does not live on the node is a protocol error") {
+  const testing::BuiltScene b = testing::build_spd("teapot", 2);
+  const PagedImage image = build_paged_image(b.db, b.grid, 64);
+  nodes::MachineParams mp;
+  mp.nodes = 2;
+  mp.max_payload = 128;
+  mp.timeout_s = 60;
+  nodes::Machine machine(mp);
+  CHECK_THROWS_WITH_AS(machine.run(
+                           [&](nodes::NodeContext& ctx) {
+                             Pager pager(ctx, image.layout, 1);
+                             if (ctx.id() == 0) {
+                               ctx.send(1, nodes::MessageType::kPageRequest, PageRequestMsg{2});  // homed at node 0
+                               ctx.receive(nodes::WaitKind::kIdle);
+                             } else {
+                               pager.serve(ctx.receive(nodes::WaitKind::kIdle));
+                             }
+                           },
+                           [](nodes::NodeContext&) {}),
+                       doctest::Contains("does not live here"), nodes::NodeError);
+}

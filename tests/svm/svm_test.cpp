@@ -1,0 +1,192 @@
+#include <doctest/doctest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <csignal>
+#include <set>
+#include <stdexcept>
+
+#include "core/render.h"
+#include "svm/svm.h"
+#include "svm_test_support.h"
+
+using namespace raynode;
+using namespace raynode::svm;
+
+namespace {
+
+SvmParams small_params(std::uint32_t nodes, std::uint32_t cache) {
+  SvmParams p;
+  p.render.width = 24;
+  p.render.height = 18;
+  p.machine.nodes = nodes;
+  p.machine.node_memory = 4 * nodes::kMiB;
+  p.machine.timeout_s = 120;
+  p.cache_pages = cache;
+  return p;
+}
+
+}  // namespace
+
+TEST_CASE("svm: images are bit-identical to sequential for N in {1,2,3,4,7,16,64} and caches of 1, 3 and all pages") {
+  struct Case {
+    const char* name;
+    int size, tessellate;
+  };
+  for (const Case c : {Case{"teapot", 2, 0}, Case{"rings", 1, 0}, Case{"mount", 2, 2}, Case{"tetra", 3, 0},
+                       Case{"balls", 1, 0}}) {
+    const testing::BuiltScene b = testing::build_spd(c.name, c.size, c.tessellate);
+    core::RenderParams rp = small_params(1, 0).render;
+    const core::RenderResult seq = core::render(b.db, b.grid, rp);
+    for (std::uint32_t n : {1u, 2u, 3u, 4u, 7u, 16u, 64u})
+      for (std::uint32_t cache : {1u, 3u, 0u}) {
+        if (n == 1 && cache != 0) continue;  // one node holds every page at home
+        CAPTURE(c.name);
+        CAPTURE(n);
+        CAPTURE(cache);
+        SvmParams p = small_params(n, cache);
+        p.page_size = 256;  // more pages than nodes, even for the small scenes
+        const SvmResult r = render_svm(b.db, b.grid, p);
+        CHECK(testing::same_bytes(r.render.color, seq.color));
+        CHECK(r.render.stats.rays.total() == seq.stats.rays.total());
+        const PagerStats t = r.pager_total();
+        CHECK(t.pixels == std::uint64_t(rp.width * rp.height));
+        if (n > 1 && cache == 1) CHECK(t.evictions > 0);
+        if (cache == 0) CHECK(t.evictions == 0);
+      }
+  }
+}
+
+TEST_CASE("svm: AOVs are identical to sequential's; the node map names a working node for every pixel") {
+  const testing::BuiltScene b = testing::build_spd("teapot", 2);
+  SvmParams p = small_params(5, 2);
+  p.render.depth_aov = p.render.normal_aov = p.render.primitive_aov = true;
+  p.node_aov = p.pages_aov = true;
+  const core::RenderResult seq = core::render(b.db, b.grid, p.render);
+  const SvmResult r = render_svm(b.db, b.grid, p);
+  CHECK(testing::same_bytes(r.render.color, seq.color));
+  CHECK(testing::same_bytes(r.render.depth, seq.depth));
+  CHECK(testing::same_bytes(r.render.normal, seq.normal));
+  CHECK(testing::same_bytes(r.render.primitive, seq.primitive));
+  std::set<int> nodes_seen;
+  double pages_sum = 0;
+  for (int y = 0; y < p.render.height; ++y)
+    for (int x = 0; x < p.render.width; ++x) {
+      const float id = *r.node.at(x, y);
+      REQUIRE(id >= 0);
+      REQUIRE(id < 5);
+      nodes_seen.insert(int(id));
+      const float pages = *r.pages.at(x, y);
+      REQUIRE(pages >= 0);
+      if (std::isfinite(*r.render.depth.at(x, y))) REQUIRE(pages >= 3);  // a hit: directory, list, primitive
+      pages_sum += pages;
+    }
+  CHECK(nodes_seen.size() == 5);
+  const PagerStats t = r.pager_total();
+  CHECK(pages_sum == double(t.pixel_pages));
+}
+
+TEST_CASE("svm: the tracer's page accesses do not depend on node count or cache; faults do, and every fault is served") {
+  const testing::BuiltScene b = testing::build_spd("rings", 1);
+  std::uint64_t accesses = 0, pixel_pages = 0, misses_small = 0, misses_big = 0;
+  for (std::uint32_t n : {1u, 4u, 9u})
+    for (std::uint32_t cache : {1u, 0u}) {
+      if (n == 1 && cache == 1) continue;
+      SvmParams p = small_params(n, cache);
+      p.page_size = 128;
+      const SvmResult r = render_svm(b.db, b.grid, p);
+      const PagerStats t = r.pager_total();
+      if (accesses == 0) accesses = t.accesses, pixel_pages = t.pixel_pages;
+      // Without evictions the accesses are the tracer's own; with them a
+      // cell's list page is found again after each eviction (more accesses),
+      // but the distinct pages per pixel stay the same.
+      if (cache == 0) CHECK(t.accesses == accesses);
+      else CHECK(t.accesses >= accesses);
+      CHECK(t.pixel_pages == pixel_pages);
+      CHECK(t.misses == t.requests_served);
+      const nodes::NodeCounters total = r.run.total();
+      CHECK(total.sent[std::size_t(nodes::MessageType::kPageRequest)].messages == t.misses);
+      CHECK(total.received[std::size_t(nodes::MessageType::kPageReply)].bytes == t.misses * (128 + 4));
+      if (n == 1) CHECK(t.misses == 0);
+      if (n == 9 && cache == 1) misses_small = t.misses;
+      if (n == 9 && cache == 0) misses_big = t.misses;
+      if (cache == 0)  // a cache that holds everything fetches each page at most once per node
+        for (std::size_t i = 0; i < r.pager.size(); ++i) CHECK(r.pager[i].misses <= r.layout.pages - r.pager[i].home_pages);
+    }
+  CHECK(misses_small > misses_big);
+}
+
+TEST_CASE("svm: page faults cost virtual time under a network model, booked as communication") {
+  const testing::BuiltScene b = testing::build_spd("teapot", 2);
+  SvmParams p = small_params(4, 2);
+  p.machine.network = nodes::make_network("ipsc2", 1e-2);  // ~1 ms latency: far above the CPU time of a fault
+  const SvmResult r = render_svm(b.db, b.grid, p);
+  const nodes::NodeCounters total = r.run.total();
+  const PagerStats t = r.pager_total();
+  REQUIRE(t.misses > 0);
+  // Each fault waits at least a request's and a reply's transfer time.
+  const double min_wait = 2 * p.machine.network.latency_s;
+  CHECK(total.communication_s >= 0.99 * double(t.misses) * min_wait);
+}
+
+TEST_CASE("svm: a database too big for the nodes stops at once, naming the sizes") {
+  const testing::BuiltScene b = testing::build_spd("tetra", 5);
+  SvmParams p = small_params(2, 0);
+  p.machine.node_memory = 128 * 1024;
+  CHECK_THROWS_WITH_AS(render_svm(b.db, b.grid, p), doctest::Contains("database needs"), std::runtime_error);
+  CHECK_THROWS_WITH_AS(render_svm(b.db, b.grid, p), doctest::Contains("2 nodes x 128 KiB hold"), std::runtime_error);
+  // With enough nodes the same memory suffices.
+  p.machine.nodes = 64;
+  p.machine.mailbox_capacity = 16;
+  CHECK_NOTHROW(render_svm(b.db, b.grid, p));
+}
+
+TEST_CASE("svm: a requested cache that does not fit is refused with the sizes; a fraction above 1 is refused") {
+  const testing::BuiltScene b = testing::build_spd("tetra", 6);
+  SvmParams p = small_params(4, 300);
+  p.machine.node_memory = 256 * 1024;
+  CHECK_THROWS_WITH_AS(render_svm(b.db, b.grid, p), doctest::Contains("does not fit"), std::runtime_error);
+  p.cache_pages = 0;
+  p.cache_fraction = 1.5;
+  CHECK_THROWS_AS(render_svm(b.db, b.grid, p), std::invalid_argument);
+}
+
+TEST_CASE("svm: cache given as a fraction of the database's pages") {
+  const testing::BuiltScene b = testing::build_spd("rings", 1);
+  SvmParams p = small_params(4, 0);
+  p.page_size = 128;
+  p.cache_fraction = 0.1;
+  const SvmResult r = render_svm(b.db, b.grid, p);
+  const std::uint32_t want = std::uint32_t(std::ceil(0.1 * r.layout.pages));
+  for (const PagerStats& s : r.pager) CHECK(s.cache_pages == std::min(want, r.layout.pages - s.home_pages));
+}
+
+TEST_CASE("svm: node threads cannot read the host's page image during the render (it is protected)") {
+  const testing::BuiltScene b = testing::build_spd("teapot", 2);
+  for (const bool cheat : {false, true}) {
+    CAPTURE(cheat);
+    const pid_t pid = fork();
+    REQUIRE(pid >= 0);
+    if (pid == 0) {
+      std::signal(SIGSEGV, SIG_DFL);  // die of it (doctest would catch it)
+      SvmParams p = small_params(2, 0);
+      p.debug_read_host_image = cheat;
+      try {
+        render_svm(b.db, b.grid, p);
+      } catch (...) {
+        _exit(3);
+      }
+      _exit(0);
+    }
+    int status = 0;
+    REQUIRE(waitpid(pid, &status, 0) == pid);
+    if (cheat) {
+      CHECK(WIFSIGNALED(status));
+      if (WIFSIGNALED(status)) CHECK(WTERMSIG(status) == SIGSEGV);
+    } else {
+      CHECK(WIFEXITED(status));
+      if (WIFEXITED(status)) CHECK(WEXITSTATUS(status) == 0);
+    }
+  }
+}
