@@ -420,7 +420,8 @@ void register_render_command(CLI::App& app) {
                 "sequential (one thread), shared (TBB threads over 16x16 tiles), replicated (--nodes emulated "
                 "nodes, each with a full database copy in its --node-memory; pixels by submaps and work stealing), "
                 "or svm (the paper's shared virtual memory: the database paged over the nodes' memories, LRU page "
-                "caches, same pixel distribution)")
+                "caches, same pixel distribution), or dataflow (the paper's data-oriented algorithm: one region of "
+                "equal estimated load per node, rays sent between region owners, spills to the host)")
       ->check(CLI::IsMember({"sequential", "shared", "replicated", "svm", "dataflow"}))
       ->capture_default_str();
   c->add_option("--nodes", o->nodes,

@@ -71,7 +71,7 @@ class PagedView {
 
  private:
   Pager* pager_;
-  const PageLayout& layout_;
+  PageLayout layout_;  // a copy: its fields stay in the view, one load away
   core::GridInfo grid_;
   std::span<const core::Material> materials_;
 };

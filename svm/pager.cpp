@@ -11,6 +11,7 @@ namespace raynode::svm {
 PagerStats& PagerStats::operator+=(const PagerStats& o) {
   accesses += o.accesses;
   cache_accesses += o.cache_accesses;
+  table_lookups += o.table_lookups;
   misses += o.misses;
   evictions += o.evictions;
   requests_served += o.requests_served;
@@ -84,11 +85,12 @@ void Pager::begin_pixel() {
   end_pixel();
   if (++pixel_stamp_ == 0) {  // wrapped: forget every stamp
     for (std::size_t p = 0; p < table_.size(); ++p) table_[p].stamp = 0;
+    for (Tlb& t : tlb_) t.key = ~std::uint64_t(0);
     pixel_stamp_ = 1;
   }
+  pixel_key_ = std::uint64_t(pixel_stamp_) << 32;  // retags the TLB: first accesses go through the table
   pixel_pages_ = 0;
   in_pixel_ = true;
-  flush_tlb();  // the first access of each page in a pixel goes through the page table (stamps)
   // Interrupt level: answer page requests that came in while we computed
   // (one acquire load when there is no mail).
   if (ctx_.has_mail()) {
@@ -136,7 +138,7 @@ const std::byte* Pager::fault(std::uint32_t page) {
     victim = lru_tail_;
     unlink(victim);
     table_[link(victim).page].frame = kNotResident;
-    flush_tlb();
+    forget(link(victim).page);
     link(victim).page = kNone;
     ++stats_.evictions;
   }

@@ -46,6 +46,7 @@ struct PageReplyMsg {
 struct PagerStats {
   std::uint64_t accesses = 0;        ///< object accesses through the page table
   std::uint64_t cache_accesses = 0;  ///< accesses to pages that are not home pages
+  std::uint64_t table_lookups = 0;   ///< accesses that went through the page table (TLB misses)
   std::uint64_t misses = 0;          ///< page faults: pages fetched from their home node
   std::uint64_t evictions = 0;       ///< cached pages dropped to make room (LRU)
   std::uint64_t requests_served = 0; ///< other nodes' page requests answered
@@ -65,10 +66,9 @@ struct PagerStats {
   PagerStats& operator+=(const PagerStats& o);
 };
 
-/// The kinds of object a view reads; each keeps its own one-entry
-/// translation cache (TLB) in the pager.
+/// The kinds of object a view reads (for the TLB's short path; all kinds
+/// share one TLB).
 enum class ObjectKind : int { kDirectory = 0, kList, kPrimitive, kNormals };
-inline constexpr int kObjectKinds = 4;
 
 /// Arena bytes a pager needs besides its frames: page table and LRU links.
 std::size_t pager_table_bytes(const PageLayout& layout, std::uint32_t cache_pages);
@@ -89,23 +89,24 @@ class Pager {
   /// The bytes of `page` (page_size of them, 64-byte aligned), valid until
   /// the next eviction (epoch() changes), for an object of kind `K`. Faults
   /// when it is not resident. Every call counts as an access and keeps the
-  /// LRU order exact; a repeated access to the page the same kind read last
-  /// takes a short path (a one-entry TLB per kind, flushed at each pixel
-  /// and eviction), the others go through the page table. Throws what the
-  /// messaging throws (nodes::RunAborted) and std::logic_error on a
-  /// protocol error.
-  template <ObjectKind K>
+  /// LRU order exact. A page already accessed in the current pixel takes a
+  /// short path: a direct-mapped translation cache (TLB) of kTlbEntries
+  /// pages whose tags include the pixel's stamp, so the first access of a
+  /// page in each pixel goes through the page table, which counts distinct
+  /// pages per pixel, and the short path stores nothing but the access
+  /// count. Throws what the messaging throws (nodes::RunAborted) and
+  /// std::logic_error on a protocol error.
+  template <ObjectKind K = ObjectKind::kPrimitive>
   const std::byte* access(std::uint32_t page) {
-    Tlb& t = tlb_[int(K)];
-    if (t.page == page) [[likely]] {
+    const Tlb& t = tlb_[page & (kTlbEntries - 1)];
+    if (t.key == (pixel_key_ | page)) [[likely]] {
       ++stats_.accesses;
-      if (t.frame >= home_frames_) cache_hit(t.frame);
+      if (t.cached) [[unlikely]]
+        cache_hit(t.frame);
       return t.data;
     }
-    return lookup(t, page);
+    return lookup(page);
   }
-  /// access() for tests and callers without a kind.
-  const std::byte* access(std::uint32_t page) { return lookup(tlb_[0], page); }
   /// Changes whenever a resident page is evicted: a pointer from access()
   /// is still valid while the epoch is unchanged.
   std::uint64_t epoch() const { return stats_.evictions; }
@@ -144,21 +145,24 @@ class Pager {
     std::byte bytes[64];
   };
 
+  static constexpr std::uint32_t kTlbEntries = 64;  // power of two
   struct Tlb {
-    std::uint32_t page = kNone;
-    std::uint32_t frame = kNone;
+    std::uint64_t key = ~std::uint64_t(0);  ///< pixel stamp << 32 | page; ~0 = empty
     const std::byte* data = nullptr;
+    std::uint32_t frame = kNone;
+    bool cached = false;  ///< a cache frame (LRU bookkeeping), not a home page
   };
   /// The page-table path of access(): counts, stamps, LRU, fault; fills `t`.
   /// Out of line (also under the tracer's [[gnu::flatten]]), so that the
   /// traversal loop keeps only the TLB check.
-  [[gnu::noinline]] const std::byte* lookup(Tlb& t, std::uint32_t page) {
+  [[gnu::noinline]] const std::byte* lookup(std::uint32_t page) {
     PageEntry& e = table_[page];
     if (e.stamp != pixel_stamp_) {
       e.stamp = pixel_stamp_;
       ++pixel_pages_;
     }
     ++stats_.accesses;
+    ++stats_.table_lookups;
     std::uint32_t f = e.frame;
     const std::byte* data;
     if (f == kNotResident) [[unlikely]] {
@@ -169,7 +173,7 @@ class Pager {
       if (f >= home_frames_) cache_hit(f);
       data = frames_ + (std::size_t(f) << layout_.page_shift);
     }
-    t = Tlb{page, f, data};
+    tlb_[page & (kTlbEntries - 1)] = Tlb{pixel_key_ | page, data, f, f >= home_frames_};
     return data;
   }
   void cache_hit(std::uint32_t f) {
@@ -177,8 +181,10 @@ class Pager {
     if (f != mru_) touch(f);
   }
   [[gnu::noinline]] void touch(std::uint32_t frame);
-  void flush_tlb() {
-    for (Tlb& t : tlb_) t.page = kNone;
+  /// Forgets `page`'s translation (it was evicted).
+  void forget(std::uint32_t page) {
+    Tlb& t = tlb_[page & (kTlbEntries - 1)];
+    if (std::uint32_t(t.key) == page) t.key = ~std::uint64_t(0);
   }
   [[gnu::noinline]] const std::byte* fault(std::uint32_t page);
   void unlink(std::uint32_t frame);
@@ -198,8 +204,9 @@ class Pager {
   nodes::ArenaArray<LruLink> lru_;
   nodes::ArenaArray<Line> lines_;
   std::byte* frames_ = nullptr;
-  Tlb tlb_[kObjectKinds];
+  Tlb tlb_[kTlbEntries];
   std::uint32_t pixel_stamp_ = 1;
+  std::uint64_t pixel_key_ = std::uint64_t(1) << 32;  ///< pixel_stamp_ << 32, the TLB tags' high half
   std::uint32_t pixel_pages_ = 0;
   bool in_pixel_ = false;
   PagerStats stats_;

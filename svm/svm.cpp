@@ -267,6 +267,7 @@ nlohmann::json SvmResult::to_json() const {
                           {"misses", p.misses},
                           {"miss_ratio", p.miss_ratio()},
                           {"cache_accesses", p.cache_accesses},
+                          {"table_lookups", p.table_lookups},
                           {"cache_miss_ratio", p.cache_miss_ratio()},
                           {"evictions", p.evictions},
                           {"page_requests", c.sent[std::size_t(nodes::MessageType::kPageRequest)].messages},

@@ -1,0 +1,85 @@
+// Load estimate of the data-oriented mode (paper, "Static load balancing",
+// steps 1 and 2; DESIGN.md, "dataflow"): the host traces a subsample of the
+// pixels — one pixel per `subsample` x `subsample` block, 8 giving the
+// paper's 1.5% — with the sequential tracer and charges the traversal work
+// of every ray (primary, shadow, reflected, refracted) to the cells of a 2D
+// grid over the scene extent in the camera's screen x and y.
+//
+// What is charged, and where: each visited 3D grid cell costs 1 (the cell
+// step) plus the length of its primitive list (the intersection tests it
+// causes, before mailboxing), charged to the 2D cost cell under the 3D
+// cell's centre projected onto the screen frame (region.h). So the cost
+// lands where the work happens — the same place a region's node will do it.
+// The work is counted by a view wrapper (CostView) around the host's
+// DirectView, through the database-view concept of core/traverse.h: the
+// tracer itself is unchanged.
+//
+// Place in the data flow: host Database + Grid + camera -> estimate_load ->
+// CostGrid -> make_partition (region.h). Host work before the run, outside
+// virtual time; its wall time is reported on its own.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/camera.h"
+#include "core/database.h"
+#include "core/direct_view.h"
+#include "core/grid.h"
+#include "core/shade.h"
+#include "dataflow/region.h"
+
+namespace raynode::dataflow {
+
+/// A database view that charges every visited cell's work to a cost grid.
+/// Owner thread only; refers to the base view and the arrays it is given.
+class CostView {
+ public:
+  /// `bin_of_cell[c]` = cost-grid index of 3D cell c; `cost` the grid's cells.
+  CostView(const core::DirectView& base, const std::uint32_t* bin_of_cell, double* cost)
+      : base_(base), bin_of_cell_(bin_of_cell), cost_(cost) {}
+  const core::GridInfo& grid_info() const { return base_.grid_info(); }
+  template <class F>
+  void for_each_in_cell(std::uint32_t cell, F&& f) const {
+    const auto& a = base_.arrays();
+    cost_[bin_of_cell_[cell]] += 1.0 + double(a.cell_start[cell + 1] - a.cell_start[cell]);
+    base_.for_each_in_cell(cell, f);
+  }
+  const core::Primitive& primitive(std::uint32_t id) const { return base_.primitive(id); }
+  const core::Material& material(std::uint32_t id) const { return base_.material(id); }
+  const core::TriangleNormals& vertex_normals(std::uint32_t id) const { return base_.vertex_normals(id); }
+
+ private:
+  const core::DirectView& base_;
+  const std::uint32_t* bin_of_cell_;
+  double* cost_;
+};
+
+/// Options of the estimate.
+struct EstimateParams {
+  int subsample = 8;     ///< one traced pixel per subsample x subsample block (>= 1)
+  int resolution = 64;   ///< cost cells along the extent's longer screen side (>= 1)
+  int spp = 1;           ///< samples per pixel, as the frame will use
+  int max_depth = 5;
+  float min_weight = 0;
+};
+
+/// The estimate's result.
+struct LoadEstimate {
+  CostGrid cost;               ///< charged work per 2D cell (cells visited + listed primitives)
+  std::uint64_t pixels = 0;    ///< pixels traced
+  std::uint64_t rays = 0;      ///< rays traced (all kinds)
+  double seconds = 0;          ///< host wall time
+};
+
+/// Traces the subsample of the width x height image of `camera` over `db`
+/// and `grid` and returns the cost grid over `extent` (screen frame
+/// `frame`). Throws std::invalid_argument for bad params.
+LoadEstimate estimate_load(const core::Database& db, const core::Grid& grid, const core::Camera& camera,
+                           const CameraFrame& frame, const ScreenRect& extent, const EstimateParams& params);
+
+/// A cost grid over `extent` with the same cell shape as estimate_load's,
+/// every cell costing 1 (the `--partition equal` comparison).
+CostGrid uniform_cost(const ScreenRect& extent, int resolution);
+
+}  // namespace raynode::dataflow

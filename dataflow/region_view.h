@@ -1,0 +1,84 @@
+// A node's database in the data-oriented mode: the primitives overlapping
+// its region and a local grid over the region (DESIGN.md, "One tracer,
+// several data views": RegionView; paper, "Algorithm overview": "all the
+// processors subdivide the region for which they are responsible").
+//
+// Place in the data flow: host Database + Partition -> make_region_databases
+// (host, before the run: per region the primitives whose screen-frame
+// footprint overlaps the region's rectangle, a local core::Database and a
+// core::Grid built over the region's part of the scene) -> copied into the
+// node's arena -> RegionView -> core traversal (traverse.h) on the node.
+//
+// Choices:
+// * A primitive overlapping several regions is copied into each (the
+//   paper's "shared objects"); a hit is accepted only inside the ray's
+//   [t_enter, t_exit) interval of the region (dataflow.cpp), so the closest
+//   hit is the sequential one. Tests of shared primitives are counted (an
+//   upper bound of the paper's "repeated intersections").
+// * Overlap is conservative: the 2D bounding box of the primitive's
+//   projection on the screen frame (triangle vertices; sphere centre +-
+//   radius; cone end centres +- the larger radius) against the region's
+//   rectangle grown by `pad` (1e-4 of the extent plus float rounding).
+// * The local grid covers the world box of the region's rectangle x the
+//   scene's depth range, clipped to its primitives' bounds; core's grid
+//   heuristic picks its resolution for the region's primitive count.
+// * Local primitives keep their global order (ascending global id) and
+//   their NFF shape index; `pp` vertex normals are renumbered; every node
+//   holds all materials (few, and addressed by index from the primitives).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/database.h"
+#include "core/direct_view.h"
+#include "core/grid.h"
+#include "dataflow/region.h"
+
+namespace raynode::dataflow {
+
+/// One region's database as the host builds it.
+struct RegionDatabase {
+  core::Database db;                   ///< primitives, vertex normals, all materials; bounds = the local grid's box
+  core::Grid grid;                     ///< local grid over `db`
+  std::vector<std::uint32_t> global;   ///< global primitive id of each local primitive
+  std::vector<std::uint8_t> shared;    ///< 1 if the primitive is also in another region
+  /// Bytes the node needs for it: primitives, vertex normals, materials, grid arrays, shared flags.
+  std::size_t bytes() const;
+};
+
+/// The databases of every region of `partition` (index = region).
+std::vector<RegionDatabase> make_region_databases(const core::Database& db, const Partition& partition,
+                                                  const core::GridParams& grid_params = {});
+
+/// The database view over a region's arrays (in a node's arena). Counts
+/// the intersection tests of shared primitives into `*shared_tests`.
+/// Owner thread only.
+class RegionView {
+ public:
+  RegionView(const core::DatabaseArrays& arrays, const std::uint8_t* shared, std::uint64_t* shared_tests)
+      : a_(arrays), shared_(shared), shared_tests_(shared_tests) {}
+
+  const core::GridInfo& grid_info() const { return a_.grid; }
+  template <class F>
+  void for_each_in_cell(std::uint32_t cell, F&& f) const {
+    const std::uint32_t* p = a_.cell_primitives.data();
+    for (std::uint32_t i = a_.cell_start[cell], e = a_.cell_start[cell + 1]; i < e; ++i) f(p[i]);
+  }
+  /// The traversal calls this once per intersection test.
+  const core::Primitive& primitive(std::uint32_t id) const {
+    *shared_tests_ += shared_[id];
+    return a_.primitives[id];
+  }
+  /// The same record, for shading (not counted).
+  const core::Primitive& shading_primitive(std::uint32_t id) const { return a_.primitives[id]; }
+  const core::Material& material(std::uint32_t id) const { return a_.materials[id]; }
+  const core::TriangleNormals& vertex_normals(std::uint32_t id) const { return a_.vertex_normals[id]; }
+
+ private:
+  core::DatabaseArrays a_;
+  const std::uint8_t* shared_;
+  std::uint64_t* shared_tests_;
+};
+
+}  // namespace raynode::dataflow

@@ -1,0 +1,220 @@
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "core/database.h"
+#include "core/grid.h"
+#include "core/render.h"
+#include "core/spd.h"
+#include "dataflow/dataflow.h"
+
+using namespace raynode;
+using namespace raynode::dataflow;
+
+namespace {
+
+struct Built {
+  core::Database db;
+  core::Grid grid;
+};
+
+Built build(const char* name, int size, int tessellate = 0) {
+  Built b;
+  b.db = core::make_database(core::make_spd_scene(core::SpdParams{name, size, tessellate}));
+  b.grid = core::build_grid(b.db);
+  return b;
+}
+
+/// Largest per-channel difference; +inf on a shape mismatch.
+float max_diff(const core::Image& a, const core::Image& b) {
+  if (a.width != b.width || a.height != b.height || a.channels != b.channels) return core::kInfinity;
+  float m = 0;
+  for (std::size_t i = 0; i < a.pixels.size(); ++i) {
+    const float x = a.pixels[i], y = b.pixels[i];
+    if (x == y) continue;  // also equal infinities
+    m = std::max(m, std::fabs(x - y));
+  }
+  return m;
+}
+
+DataflowParams params_for(const core::RenderParams& rp, std::uint32_t nodes) {
+  DataflowParams p;
+  p.render = rp;
+  p.machine.nodes = nodes;
+  p.machine.node_memory = 16 * nodes::kMiB;
+  p.machine.timeout_s = 120;
+  return p;
+}
+
+void check_counters_match(const core::RenderStats& a, const core::RenderStats& b) {
+  CHECK(a.rays.primary == b.rays.primary);
+  CHECK(a.rays.shadow == b.rays.shadow);
+  CHECK(a.rays.reflected == b.rays.reflected);
+  CHECK(a.rays.refracted == b.rays.refracted);
+  CHECK(a.skipped.shadow_backfacing == b.skipped.shadow_backfacing);
+  CHECK(a.skipped.highlight_marker == b.skipped.highlight_marker);
+  CHECK(a.skipped.depth_limit == b.skipped.depth_limit);
+}
+
+}  // namespace
+
+TEST_CASE("dataflow: images equal sequential within 1e-5 for N in {1, 2, 3, 4, 8, 12, 32, 64}") {
+  struct Case {
+    const char* name;
+    int size;
+    int tessellate;
+  };
+  for (const Case& sc : {Case{"rings", 1, 0}, Case{"balls", 1, 0}, Case{"teapot", 2, 0}, Case{"mount", 2, 0},
+                         Case{"tetra", 3, 0}, Case{"rings", 1, 1}}) {
+    const Built b = build(sc.name, sc.size, sc.tessellate);
+    core::RenderParams rp;
+    rp.width = 48;
+    rp.height = 32;
+    const core::RenderResult seq = core::render(b.db, b.grid, rp);
+    for (std::uint32_t n : {1u, 2u, 3u, 4u, 8u, 12u, 32u, 64u}) {
+      CAPTURE(sc.name);
+      CAPTURE(n);
+      const DataflowResult r = render_dataflow(b.db, b.grid, params_for(rp, n));
+      CHECK(max_diff(r.render.color, seq.color) <= 1e-5f);
+      check_counters_match(r.render.stats, seq.stats);
+      CHECK(r.regions.size() == n);
+      CHECK(r.host.contributions == [&] {
+        std::uint64_t c = 0;
+        for (const NodeFlowStats& s : r.per_node) c += s.contributions;
+        return c;
+      }());
+      if (n > 1 && std::string(sc.name) != "tetra") CHECK(r.ray_messages() > 0);
+    }
+  }
+}
+
+TEST_CASE("dataflow: AOVs equal sequential and the region AOV names the region of each primary hit") {
+  const Built b = build("rings", 1);
+  core::RenderParams rp;
+  rp.width = 40;
+  rp.height = 30;
+  rp.depth_aov = rp.normal_aov = rp.primitive_aov = true;
+  const core::RenderResult seq = core::render(b.db, b.grid, rp);
+  for (int spp : {1, 2}) {
+    CAPTURE(spp);
+    rp.spp = spp;
+    const core::RenderResult s = core::render(b.db, b.grid, rp);
+    DataflowParams p = params_for(rp, 7);
+    p.region_aov = true;
+    const DataflowResult r = render_dataflow(b.db, b.grid, p);
+    CHECK(max_diff(r.render.color, s.color) <= 1e-5f);
+    CHECK(max_diff(r.render.depth, s.depth) == 0.0f);
+    CHECK(max_diff(r.render.normal, s.normal) == 0.0f);
+    CHECK(max_diff(r.render.primitive, s.primitive) == 0.0f);
+    CHECK(r.render.stats.rays.primary == s.stats.rays.primary);
+    // Region ids: -1 exactly where the eye ray misses, else a region; several regions appear.
+    REQUIRE(r.region.width == 40);
+    float lo = 1e9f, hi = -1e9f;
+    for (std::size_t i = 0; i < r.region.pixels.size(); ++i) {
+      const float reg = r.region.pixels[i];
+      CHECK((reg < 0) == (s.primitive.pixels[i] < 0));
+      if (reg >= 0) lo = std::min(lo, reg), hi = std::max(hi, reg);
+    }
+    CHECK(lo >= 0);
+    CHECK(hi <= 6);
+    CHECK(hi > lo);
+  }
+}
+
+TEST_CASE("dataflow: with --queue-capacity 1 rays spill to the host and come back; nothing is lost") {
+  for (auto [name, size] : {std::pair{"rings", 1}, std::pair{"mount", 2}}) {
+    const Built b = build(name, size);
+    core::RenderParams rp;
+    rp.width = 48;
+    rp.height = 32;
+    const core::RenderResult seq = core::render(b.db, b.grid, rp);
+    for (std::uint32_t n : {2u, 3u, 4u, 8u, 12u, 32u, 64u}) {
+      CAPTURE(name);
+      CAPTURE(n);
+      DataflowParams p = params_for(rp, n);
+      p.machine.mailbox_capacity = 1;
+      const DataflowResult r = render_dataflow(b.db, b.grid, p);
+      CHECK(max_diff(r.render.color, seq.color) <= 1e-5f);
+      check_counters_match(r.render.stats, seq.stats);
+      CHECK(r.host.spilled > 0);
+      CHECK(r.host.forwarded == r.host.spilled);
+      CHECK(r.spill_fraction() > 0);
+      CHECK(r.spill_fraction() <= 1);
+      std::uint64_t received = 0, sent = 0;
+      for (const NodeFlowStats& s : r.per_node) {
+        for (int k = 0; k < kRayKindCount; ++k) received += s.rays_received[k];
+        for (int k = 0; k < kRayKindCount; ++k) sent += s.rays_sent[k].messages + s.rays_spilled[k].messages;
+      }
+      CHECK(received == sent);  // every ray message reached its region
+    }
+  }
+}
+
+TEST_CASE("dataflow: the pixel sums equal sequential's (no contribution lost or doubled)") {
+  const Built b = build("balls", 1);
+  core::RenderParams rp;
+  rp.width = 32;
+  rp.height = 24;
+  rp.max_depth = 3;
+  const core::RenderResult seq = core::render(b.db, b.grid, rp);
+  DataflowParams p = params_for(rp, 5);
+  p.machine.mailbox_capacity = 2;
+  const DataflowResult r = render_dataflow(b.db, b.grid, p);
+  double a = 0, s = 0;
+  for (float v : r.render.color.pixels) a += v;
+  for (float v : seq.color.pixels) s += v;
+  CHECK(a == doctest::Approx(s).epsilon(1e-6));
+  CHECK(r.host.waves >= 2);  // termination needs two equal waves
+}
+
+TEST_CASE("dataflow: equal regions load the nodes less evenly than balanced ones") {
+  const Built b = build("teapot", 2);
+  core::RenderParams rp;
+  rp.width = 64;
+  rp.height = 64;
+  DataflowParams p = params_for(rp, 8);
+  p.subsample = 4;
+  const DataflowResult bal = render_dataflow(b.db, b.grid, p);
+  p.partition = PartitionKind::kEqual;
+  const DataflowResult eq = render_dataflow(b.db, b.grid, p);
+  // Estimated cost per region: balanced is near-equal, equal-size is not.
+  auto spread = [](const DataflowResult& r) {
+    double lo = 1e300, hi = 0;
+    for (const RegionReport& g : r.regions) lo = std::min(lo, g.estimated_cost), hi = std::max(hi, g.estimated_cost);
+    return hi > 0 ? lo / hi : 0.0;
+  };
+  CHECK(spread(bal) > 0.9);
+  CHECK(spread(eq) < spread(bal));
+  CHECK(max_diff(bal.render.color, eq.render.color) <= 1e-5f);
+}
+
+TEST_CASE("dataflow: a region that does not fit its node fails before the run, naming the sizes") {
+  const Built b = build("tetra", 4);
+  core::RenderParams rp;
+  rp.width = rp.height = 8;
+  DataflowParams p = params_for(rp, 2);
+  p.machine.node_memory = 64 * 1024;
+  try {
+    render_dataflow(b.db, b.grid, p);
+    FAIL("expected an error");
+  } catch (const std::runtime_error& e) {
+    const std::string what = e.what();
+    CAPTURE(what);
+    CHECK(what.find("dataflow mode: region") != std::string::npos);
+    CHECK(what.find("primitives") != std::string::npos);
+    CHECK(what.find("--node-memory is 64 KiB") != std::string::npos);
+  }
+}
+
+TEST_CASE("dataflow: bad parameters are rejected") {
+  const Built b = build("tetra", 1);
+  core::RenderParams rp;
+  rp.width = rp.height = 8;
+  DataflowParams p = params_for(rp, 2);
+  p.subsample = 0;
+  CHECK_THROWS_AS(render_dataflow(b.db, b.grid, p), std::invalid_argument);
+  CHECK_THROWS_AS(parse_partition("median"), std::invalid_argument);
+  CHECK(parse_partition("equal") == PartitionKind::kEqual);
+}
