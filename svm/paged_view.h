@@ -13,8 +13,8 @@
 // Reference lifetime: primitive() and vertex_normals() return references
 // into a frame that the next access may evict (a one-page cache does so
 // every time); the tracer uses them before its next view call
-// (core/traverse.h). for_each_in_cell re-finds its list page when a call of
-// f() evicted something.
+// (core/traverse.h). for_each_in_cell visits a copy of a list piece that
+// lies in a cache frame (f() may evict it); home pages never move.
 //
 // Thread safety: owner node thread only.
 #pragma once
@@ -41,20 +41,20 @@ class PagedView {
   template <class F>
   void for_each_in_cell(std::uint32_t cell, F&& f) const {
     DirectoryEntry e;
-    std::memcpy(&e, pager_->access<ObjectKind::kDirectory>(layout_.directory_page(cell)) + layout_.directory_offset(cell), sizeof e);
+    std::memcpy(&e, pager_->access<ObjectKind::kDirectory>(layout_.directory_page(cell)) + layout_.directory_offset(cell),
+                sizeof e);
     std::uint32_t address = e.list, left = e.count;
     while (left > 0) {
       const std::uint32_t page = layout_.list_page(address), offset = layout_.list_offset(address);
       const std::uint32_t n = std::min(left, (layout_.page_size - offset) / std::uint32_t(sizeof(std::uint32_t)));
       const std::uint32_t* ids = reinterpret_cast<const std::uint32_t*>(pager_->access<ObjectKind::kList>(page) + offset);
-      std::uint64_t epoch = pager_->epoch();
-      for (std::uint32_t i = 0; i < n; ++i) {
-        f(ids[i]);
-        if (pager_->epoch() != epoch) [[unlikely]] {  // f() evicted a page: find the list again
-          ids = reinterpret_cast<const std::uint32_t*>(pager_->access<ObjectKind::kList>(page) + offset);
-          epoch = pager_->epoch();
-        }
+      if (pager_->in_cache(ids)) [[unlikely]] {
+        // f() may evict this cache page (a one-page cache does): visit a copy.
+        std::uint32_t* copy = pager_->list_buffer();
+        std::memcpy(copy, ids, n * sizeof(std::uint32_t));
+        ids = copy;
       }
+      for (std::uint32_t i = 0; i < n; ++i) f(ids[i]);
       left -= n;
       address += n * std::uint32_t(sizeof(std::uint32_t));
     }

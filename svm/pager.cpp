@@ -5,8 +5,14 @@
 #include <algorithm>
 #include <cstring>
 #include <stdexcept>
+#include <thread>
 
 namespace raynode::svm {
+
+namespace {
+/// Yields before a page fault blocks (see Pager::fault).
+constexpr int kSpinYields = 64;
+}  // namespace
 
 PagerStats& PagerStats::operator+=(const PagerStats& o) {
   accesses += o.accesses;
@@ -24,7 +30,7 @@ PagerStats& PagerStats::operator+=(const PagerStats& o) {
 }
 
 std::size_t pager_table_bytes(const PageLayout& layout, std::uint32_t cache_pages) {
-  return std::size_t(layout.pages) * 8 + std::size_t(cache_pages) * 12;
+  return std::size_t(layout.pages) * 8 + std::size_t(cache_pages) * 12 + layout.page_size;  // + the list buffer
 }
 
 Pager::Pager(nodes::NodeContext& ctx, const PageLayout& layout, std::uint32_t cache_pages)
@@ -35,11 +41,14 @@ Pager::Pager(nodes::NodeContext& ctx, const PageLayout& layout, std::uint32_t ca
       cache_frames_(cache_pages),
       table_(ctx.arena(), layout.pages, "its page table"),
       lru_(ctx.arena(), cache_pages, "its LRU links"),
-      lines_(ctx.arena(), (std::size_t(home_frames_) + cache_pages) * (layout.page_size / sizeof(Line)),
-             "its home pages and page cache") {
+      lines_(ctx.arena(), (std::size_t(home_frames_) + cache_pages + 1) * (layout.page_size / sizeof(Line)),
+             "its home pages, page cache and list buffer") {
   static_assert(sizeof(PageEntry) == 8 && sizeof(LruLink) == 12, "pager_table_bytes counts these sizes");
   frames_ = reinterpret_cast<std::byte*>(lines_.data());
+  cache_base_ = frames_ + (std::size_t(home_frames_) << layout.page_shift);
+  list_buffer_ = reinterpret_cast<std::uint32_t*>(frames_ + (std::size_t(home_frames_ + cache_pages) << layout.page_shift));
   for (std::uint32_t s = 0; s < home_frames_; ++s) table_[std::size_t(s) * nodes_ + ctx.id()].frame = s;
+  all_home_ = home_frames_ == layout.pages && nodes_ == 1;
   stats_.home_pages = home_frames_;
   stats_.cache_pages = cache_frames_;
 }
@@ -145,13 +154,30 @@ const std::byte* Pager::fault(std::uint32_t page) {
 
   const nodes::NodeId home = PageLayout::home(page, nodes_);
   ctx_.send(home, nodes::MessageType::kPageRequest, PageRequestMsg{page});
-  ctx_.release_run();  // blocked: let another node compute meanwhile
   std::byte* frame = frames_ + (std::size_t(victim) << layout_.page_shift);
   double arrival = 0;
-  bool got = false;
+  bool got = false, released = false;
+  int spins = 0;
   nodes::Message m;
   while (!got) {
     if (!ctx_.poll(m)) {
+      // The reply usually comes within microseconds (the home node serves
+      // at its next poll): wait for it on this CPU first, yielding to the
+      // home node's thread, so that this node's caches stay warm (its CPU
+      // time is its virtual clock: refilling them after a thread switch
+      // would be charged as work). The wait itself is not work: it is
+      // dropped from the clock, which advance_to() below sets to the
+      // reply's arrival. Then block, giving the run permit away.
+      if (spins < kSpinYields) {
+        ++spins;
+        std::this_thread::yield();
+        ctx_.reset_cpu_mark();
+        continue;
+      }
+      if (!released) {
+        ctx_.release_run();
+        released = true;
+      }
       ctx_.wait_for_mail(0);
       continue;
     }
@@ -174,7 +200,7 @@ const std::byte* Pager::fault(std::uint32_t page) {
   push_front(victim);
   table_[page].frame = victim;
   // Compute again only with a run permit, answering requests meanwhile.
-  while (!ctx_.try_run()) {
+  while (released && !ctx_.try_run()) {
     ctx_.wait_for_mail(0);
     while (ctx_.poll(m)) serve_or_defer(m);
   }

@@ -147,7 +147,7 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
   out.layout = layout;
   const std::uint32_t item_floats = std::uint32_t(params.item_w * params.item_h) * pixel_layout.channels;
   out.node_fixed_bytes = nodes::Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload +
-                         std::size_t(layout.pages) * 8 + sizeof(Pager) + in.materials.size_bytes() +
+                         pager_table_bytes(layout, 0) + sizeof(Pager) + in.materials.size_bytes() +
                          in.lights.size_bytes() + item_floats * sizeof(float) + sizeof(core::ShadingScratch) +
                          message_reserve(m.max_payload);
   // Fail before starting, with the sizes, when a node cannot hold its part.

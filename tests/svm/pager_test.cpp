@@ -50,7 +50,11 @@ TEST_CASE("pager: a miss fetches the page's bytes from its home node; LRU evicts
   const PagedImage image = build_paged_image(b.db, b.grid, 64);
   REQUIRE(image.layout.pages > 8);
   with_two_nodes(image, 2, [&](Pager& pager, nodes::NodeContext&) {
-    auto same = [&](std::uint32_t p) { return std::memcmp(pager.access(p), image.page(p).data(), 64) == 0; };
+    // One pixel per access: recency is updated at a page's first access in a pixel.
+    auto same = [&](std::uint32_t p) {
+      pager.begin_pixel();
+      return std::memcmp(pager.access(p), image.page(p).data(), 64) == 0;
+    };
     const std::uint32_t A = 1, B = 3, C = 5;  // homed at node 1
     CHECK(same(0));                            // home: no fault
     CHECK(pager.stats().misses == 0);
@@ -73,7 +77,7 @@ TEST_CASE("pager: a miss fetches the page's bytes from its home node; LRU evicts
   });
 }
 
-TEST_CASE("pager: typed accesses keep exact LRU order through the TLB short path") {
+TEST_CASE("pager: recency is a page's first access in each pixel; later accesses in the pixel take the TLB") {
   const testing::BuiltScene b = testing::build_spd("teapot", 2);
   const PagedImage image = build_paged_image(b.db, b.grid, 64);
   with_two_nodes(image, 2, [&](Pager& pager, nodes::NodeContext&) {
@@ -81,15 +85,23 @@ TEST_CASE("pager: typed accesses keep exact LRU order through the TLB short path
     pager.begin_pixel();
     pager.access<ObjectKind::kPrimitive>(A);
     pager.access<ObjectKind::kList>(B);
-    pager.access<ObjectKind::kPrimitive>(A);  // TLB hit, must still make A the most recent
+    pager.access<ObjectKind::kPrimitive>(A);  // same pixel: TLB, A stays older than B
+    CHECK(pager.stats().table_lookups == 2);
+    pager.begin_pixel();
+    pager.access<ObjectKind::kPrimitive>(A);  // a new pixel: A becomes the most recent
     pager.access<ObjectKind::kDirectory>(C);  // evicts B, not A
     CHECK(pager.resident(A));
     CHECK(!pager.resident(B));
-    CHECK(pager.stats().accesses == 4);
+    CHECK(pager.resident(C));
+    pager.access<ObjectKind::kDirectory>(B);  // same pixel: A and C were first touched in it, A first: A goes
+    CHECK(!pager.resident(A));
+    CHECK(pager.resident(C));
+    CHECK(pager.stats().accesses == 6);
+    CHECK(pager.stats().misses == 4);
     CHECK(pager.pixel_pages() == 3);
     pager.end_pixel();
-    CHECK(pager.stats().pixels == 1);
-    CHECK(pager.stats().pixel_pages == 3);
+    CHECK(pager.stats().pixels == 2);
+    CHECK(pager.stats().pixel_pages == 2 + 3);
   });
 }
 
