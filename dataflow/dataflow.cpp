@@ -54,13 +54,6 @@ struct PrimarySample {
   std::uint32_t sample;
 };
 
-template <class T>
-ArenaArray<T> copy_to(Arena& arena, std::span<const T> src, const char* what) {
-  ArenaArray<T> a(arena, src.size(), what);
-  if (!src.empty()) std::memcpy(static_cast<void*>(a.data()), src.data(), src.size_bytes());
-  return a;
-}
-
 /// The lower end of a region's query: a little before t_enter, so that a hit
 /// exactly on the region boundary is not lost to rounding (a hit before
 /// t_enter would have ended the ray in the previous region).
@@ -620,18 +613,18 @@ DataflowResult render_dataflow(const core::Database& db, const core::Grid& grid,
     s->spp = rp.spp;
     s->max_depth = rp.max_depth;
     s->min_weight = rp.min_weight;
-    s->primitives = copy_to(a, std::span<const core::Primitive>(rd.db.primitives), "the region's primitives");
+    s->primitives = nodes::copy_to_arena(a, std::span<const core::Primitive>(rd.db.primitives), "the region's primitives");
     s->vertex_normals =
-        copy_to(a, std::span<const core::TriangleNormals>(rd.db.vertex_normals), "the region's vertex normals");
-    s->materials = copy_to(a, std::span<const core::Material>(rd.db.materials), "the materials");
-    s->cell_start = copy_to(a, std::span<const std::uint32_t>(rd.grid.cell_start), "the region's grid cells");
+        nodes::copy_to_arena(a, std::span<const core::TriangleNormals>(rd.db.vertex_normals), "the region's vertex normals");
+    s->materials = nodes::copy_to_arena(a, std::span<const core::Material>(rd.db.materials), "the materials");
+    s->cell_start = nodes::copy_to_arena(a, std::span<const std::uint32_t>(rd.grid.cell_start), "the region's grid cells");
     s->cell_primitives =
-        copy_to(a, std::span<const std::uint32_t>(rd.grid.cell_primitives), "the region's cell lists");
-    s->shared = copy_to(a, std::span<const std::uint8_t>(rd.shared), "the shared-primitive flags");
-    s->lights = copy_to(a, std::span<const core::Light>(db.lights), "the lights");
-    s->tree = copy_to(a, std::span<const KdNode>(partition.tree), "the region tree");
-    s->rects = copy_to(a, std::span<const ScreenRect>(partition.rects), "the region rectangles");
-    s->primaries = copy_to(a, std::span<const PrimarySample>(primaries[ctx.id()]), "its primary rays");
+        nodes::copy_to_arena(a, std::span<const std::uint32_t>(rd.grid.cell_primitives), "the region's cell lists");
+    s->shared = nodes::copy_to_arena(a, std::span<const std::uint8_t>(rd.shared), "the shared-primitive flags");
+    s->lights = nodes::copy_to_arena(a, std::span<const core::Light>(db.lights), "the lights");
+    s->tree = nodes::copy_to_arena(a, std::span<const KdNode>(partition.tree), "the region tree");
+    s->rects = nodes::copy_to_arena(a, std::span<const ScreenRect>(partition.rects), "the region rectangles");
+    s->primaries = nodes::copy_to_arena(a, std::span<const PrimarySample>(primaries[ctx.id()]), "its primary rays");
     s->stack = ArenaArray<RayMsg>(a, budget.stack_slots, "its ray stack");
     s->inbox = ArenaArray<Pending>(a, budget.inbox_slots, "its inbox");
     s->contributions = ArenaArray<Contribution>(a, budget.contribution_slots, "its contribution buffer");

@@ -18,6 +18,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstring>
 #include <cstdint>
 #include <memory_resource>
 #include <new>
@@ -144,5 +145,15 @@ class ArenaArray {
   Arena* arena_ = nullptr;
   std::span<T> data_;
 };
+
+/// A copy of `src` in a new array of `arena` (T trivially copyable): how the
+/// host loads a node's memory. Throws ArenaExhausted naming `what`.
+template <class T>
+ArenaArray<T> copy_to_arena(Arena& arena, std::span<const T> src, const char* what) {
+  static_assert(std::is_trivially_copyable_v<T>, "node memory holds plain records");
+  ArenaArray<T> a(arena, src.size(), what);
+  if (!src.empty()) std::memcpy(static_cast<void*>(a.data()), src.data(), src.size_bytes());
+  return a;
+}
 
 }  // namespace raynode::nodes

@@ -16,14 +16,6 @@ namespace raynode::nodes {
 
 namespace {
 
-/// Copies `src` into a new array in `arena`.
-template <class T>
-ArenaArray<T> copy_to(Arena& arena, std::span<const T> src, const char* what) {
-  ArenaArray<T> a(arena, src.size(), what);
-  if (!src.empty()) std::memcpy(static_cast<void*>(a.data()), src.data(), src.size_bytes());
-  return a;
-}
-
 /// Everything a node holds: the arrays in its arena, plus O(1) metadata
 /// (grid description, camera, background, parameters) copied by value, so
 /// the node thread reads nothing of the host's.
@@ -104,12 +96,12 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
     Arena& a = ctx.arena();
     auto s = std::make_unique<NodeState>(grid.info, camera, db.background, rp, submaps[ctx.id()]);
     s->arena = &a;
-    s->primitives = copy_to(a, host_arrays.primitives, "the database copy (primitives)");
-    s->vertex_normals = copy_to(a, host_arrays.vertex_normals, "the database copy (vertex normals)");
-    s->materials = copy_to(a, host_arrays.materials, "the database copy (materials)");
-    s->cell_start = copy_to(a, host_arrays.cell_start, "the database copy (grid cells)");
-    s->cell_primitives = copy_to(a, host_arrays.cell_primitives, "the database copy (cell lists)");
-    s->lights = copy_to(a, std::span<const core::Light>(db.lights), "the lights");
+    s->primitives = copy_to_arena(a, host_arrays.primitives, "the database copy (primitives)");
+    s->vertex_normals = copy_to_arena(a, host_arrays.vertex_normals, "the database copy (vertex normals)");
+    s->materials = copy_to_arena(a, host_arrays.materials, "the database copy (materials)");
+    s->cell_start = copy_to_arena(a, host_arrays.cell_start, "the database copy (grid cells)");
+    s->cell_primitives = copy_to_arena(a, host_arrays.cell_primitives, "the database copy (cell lists)");
+    s->lights = copy_to_arena(a, std::span<const core::Light>(db.lights), "the lights");
     s->pixels = ArenaArray<float>(a, item_floats, "its pixel buffer");
     s->scratch = a.create<core::ShadingScratch>("its tracing scratch");
     states[ctx.id()] = std::move(s);

@@ -41,13 +41,13 @@ class PagedView {
   template <class F>
   void for_each_in_cell(std::uint32_t cell, F&& f) const {
     DirectoryEntry e;
-    std::memcpy(&e, pager_->access<ObjectKind::kDirectory>(layout_.directory_page(cell)) + layout_.directory_offset(cell),
+    std::memcpy(&e, pager_->access(layout_.directory_page(cell)) + layout_.directory_offset(cell),
                 sizeof e);
     std::uint32_t address = e.list, left = e.count;
     while (left > 0) {
       const std::uint32_t page = layout_.list_page(address), offset = layout_.list_offset(address);
       const std::uint32_t n = std::min(left, (layout_.page_size - offset) / std::uint32_t(sizeof(std::uint32_t)));
-      const std::uint32_t* ids = reinterpret_cast<const std::uint32_t*>(pager_->access<ObjectKind::kList>(page) + offset);
+      const std::uint32_t* ids = reinterpret_cast<const std::uint32_t*>(pager_->access(page) + offset);
       if (pager_->in_cache(ids)) [[unlikely]] {
         // f() may evict this cache page (a one-page cache does): visit a copy.
         std::uint32_t* copy = pager_->list_buffer();
@@ -60,12 +60,12 @@ class PagedView {
     }
   }
   const core::Primitive& primitive(std::uint32_t id) const {
-    return *reinterpret_cast<const core::Primitive*>(pager_->access<ObjectKind::kPrimitive>(layout_.primitive_page(id)) +
+    return *reinterpret_cast<const core::Primitive*>(pager_->access(layout_.primitive_page(id)) +
                                                      layout_.primitive_offset(id));
   }
   const core::Material& material(std::uint32_t id) const { return materials_[id]; }
   const core::TriangleNormals& vertex_normals(std::uint32_t id) const {
-    return *reinterpret_cast<const core::TriangleNormals*>(pager_->access<ObjectKind::kNormals>(layout_.normals_page(id)) +
+    return *reinterpret_cast<const core::TriangleNormals*>(pager_->access(layout_.normals_page(id)) +
                                                            layout_.normals_offset(id));
   }
 

@@ -72,9 +72,6 @@ struct PagerStats {
   PagerStats& operator+=(const PagerStats& o);
 };
 
-/// The kinds of object a view reads (for the TLB's short path; all kinds
-/// share one TLB).
-enum class ObjectKind : int { kDirectory = 0, kList, kPrimitive, kNormals };
 
 /// Arena bytes a pager needs besides its frames: page table and LRU links.
 std::size_t pager_table_bytes(const PageLayout& layout, std::uint32_t cache_pages);
@@ -93,7 +90,7 @@ class Pager {
   std::byte* home_frame(std::uint32_t page);
 
   /// The bytes of `page` (page_size of them, 64-byte aligned), valid until
-  /// the page is evicted (home pages never are), for an object of kind `K`. Faults
+  /// the page is evicted (home pages never are). Faults
   /// when it is not resident. Every call counts as an access. A page
   /// already accessed in the current pixel takes a
   /// short path: a direct-mapped translation cache (TLB) of kTlbEntries
@@ -106,7 +103,6 @@ class Pager {
   /// A node that is home to every page (one node) needs no translation:
   /// page p is frame p, so the address is computed, not looked up, and
   /// only the counting touches the page table (off the address's path).
-  template <ObjectKind K = ObjectKind::kPrimitive>
   const std::byte* access(std::uint32_t page) {
     if (all_home_) {
       // Branch-free counting (a branch on "first touch in this pixel"

@@ -25,14 +25,6 @@ namespace {
 /// parks the node's incoming mail; a page fault sets work messages aside).
 std::size_t message_reserve(std::uint32_t max_payload) { return 32 * 1024 + 2 * std::size_t(max_payload); }
 
-/// Copies `src` into a new array in `arena`.
-template <class T>
-nodes::ArenaArray<T> copy_to(nodes::Arena& arena, std::span<const T> src, const char* what) {
-  nodes::ArenaArray<T> a(arena, src.size(), what);
-  if (!src.empty()) std::memcpy(static_cast<void*>(a.data()), src.data(), src.size_bytes());
-  return a;
-}
-
 /// What a node holds besides the pager: O(1) metadata by value, the
 /// replicated materials and lights in its arena.
 struct NodeState {
@@ -173,8 +165,8 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
     nodes::Arena& a = ctx.arena();
     auto s = std::make_unique<NodeState>(in.grid, in.camera, in.background, rp, submaps[ctx.id()]);
     s->arena = &a;
-    s->materials = copy_to(a, in.materials, "the materials");
-    s->lights = copy_to(a, in.lights, "the lights");
+    s->materials = nodes::copy_to_arena(a, in.materials, "the materials");
+    s->lights = nodes::copy_to_arena(a, in.lights, "the lights");
     s->pixels = nodes::ArenaArray<float>(a, item_floats, "its pixel buffer");
     s->scratch = a.create<core::ShadingScratch>("its tracing scratch");
     s->pager = a.create<Pager>("its pager", ctx, layout, cache[ctx.id()]);

@@ -9,23 +9,12 @@
 #include "core/render.h"
 #include "core/spd.h"
 #include "dataflow/dataflow.h"
+#include "test_scenes.h"
 
 using namespace raynode;
 using namespace raynode::dataflow;
 
 namespace {
-
-struct Built {
-  core::Database db;
-  core::Grid grid;
-};
-
-Built build(const char* name, int size, int tessellate = 0) {
-  Built b;
-  b.db = core::make_database(core::make_spd_scene(core::SpdParams{name, size, tessellate}));
-  b.grid = core::build_grid(b.db);
-  return b;
-}
 
 /// Largest per-channel difference; +inf on a shape mismatch.
 float max_diff(const core::Image& a, const core::Image& b) {
@@ -68,7 +57,7 @@ TEST_CASE("dataflow: images equal sequential within 1e-5 for N in {1, 2, 3, 4, 8
   };
   for (const Case& sc : {Case{"rings", 1, 0}, Case{"balls", 1, 0}, Case{"teapot", 2, 0}, Case{"mount", 2, 0},
                          Case{"tetra", 3, 0}, Case{"rings", 1, 1}}) {
-    const Built b = build(sc.name, sc.size, sc.tessellate);
+    const testing::BuiltScene b = testing::build_spd(sc.name, sc.size, sc.tessellate);
     core::RenderParams rp;
     rp.width = 48;
     rp.height = 32;
@@ -91,7 +80,7 @@ TEST_CASE("dataflow: images equal sequential within 1e-5 for N in {1, 2, 3, 4, 8
 }
 
 TEST_CASE("dataflow: AOVs equal sequential and the region AOV names the region of each primary hit") {
-  const Built b = build("rings", 1);
+  const testing::BuiltScene b = testing::build_spd("rings", 1);
   core::RenderParams rp;
   rp.width = 40;
   rp.height = 30;
@@ -125,7 +114,7 @@ TEST_CASE("dataflow: AOVs equal sequential and the region AOV names the region o
 
 TEST_CASE("dataflow: with --queue-capacity 1 rays spill to the host and come back; nothing is lost") {
   for (auto [name, size] : {std::pair{"rings", 1}, std::pair{"mount", 2}}) {
-    const Built b = build(name, size);
+    const testing::BuiltScene b = testing::build_spd(name, size);
     core::RenderParams rp;
     rp.width = 48;
     rp.height = 32;
@@ -153,7 +142,7 @@ TEST_CASE("dataflow: with --queue-capacity 1 rays spill to the host and come bac
 }
 
 TEST_CASE("dataflow: the pixel sums equal sequential's (no contribution lost or doubled)") {
-  const Built b = build("balls", 1);
+  const testing::BuiltScene b = testing::build_spd("balls", 1);
   core::RenderParams rp;
   rp.width = 32;
   rp.height = 24;
@@ -170,7 +159,7 @@ TEST_CASE("dataflow: the pixel sums equal sequential's (no contribution lost or 
 }
 
 TEST_CASE("dataflow: equal regions load the nodes less evenly than balanced ones") {
-  const Built b = build("teapot", 2);
+  const testing::BuiltScene b = testing::build_spd("teapot", 2);
   core::RenderParams rp;
   rp.width = 64;
   rp.height = 64;
@@ -191,7 +180,7 @@ TEST_CASE("dataflow: equal regions load the nodes less evenly than balanced ones
 }
 
 TEST_CASE("dataflow: a region that does not fit its node fails before the run, naming the sizes") {
-  const Built b = build("tetra", 4);
+  const testing::BuiltScene b = testing::build_spd("tetra", 4);
   core::RenderParams rp;
   rp.width = rp.height = 8;
   DataflowParams p = params_for(rp, 2);
@@ -209,7 +198,7 @@ TEST_CASE("dataflow: a region that does not fit its node fails before the run, n
 }
 
 TEST_CASE("dataflow: bad parameters are rejected") {
-  const Built b = build("tetra", 1);
+  const testing::BuiltScene b = testing::build_spd("tetra", 1);
   core::RenderParams rp;
   rp.width = rp.height = 8;
   DataflowParams p = params_for(rp, 2);

@@ -8,34 +8,14 @@
 #include "core/render.h"
 #include "core/spd.h"
 #include "nodes/replicated.h"
+#include "test_scenes.h"
 
 using namespace raynode;
 using namespace raynode::nodes;
 
-namespace {
-
-struct Built {
-  core::Database db;
-  core::Grid grid;
-};
-
-Built build(const char* name, int size) {
-  Built b;
-  b.db = core::make_database(core::make_spd_scene(core::SpdParams{name, size, 0}));
-  b.grid = core::build_grid(b.db);
-  return b;
-}
-
-bool same_bytes(const core::Image& a, const core::Image& b) {
-  return a.width == b.width && a.height == b.height && a.channels == b.channels &&
-         std::memcmp(a.pixels.data(), b.pixels.data(), a.pixels.size() * sizeof(float)) == 0;
-}
-
-}  // namespace
-
 TEST_CASE("replicated: images and AOVs are bit-identical to sequential for N in {1, 2, 3, 7, 16, 64}") {
   for (auto [name, size] : {std::pair{"balls", 1}, std::pair{"rings", 1}}) {
-    const Built b = build(name, size);
+    const testing::BuiltScene b = testing::build_spd(name, size);
     core::RenderParams rp;
     rp.width = 40;
     rp.height = 30;
@@ -51,10 +31,10 @@ TEST_CASE("replicated: images and AOVs are bit-identical to sequential for N in 
       p.machine.timeout_s = 120;
       p.node_aov = true;
       const ReplicatedResult r = render_replicated(b.db, b.grid, p);
-      CHECK(same_bytes(r.render.color, seq.color));
-      CHECK(same_bytes(r.render.depth, seq.depth));
-      CHECK(same_bytes(r.render.normal, seq.normal));
-      CHECK(same_bytes(r.render.primitive, seq.primitive));
+      CHECK(testing::same_bytes(r.render.color, seq.color));
+      CHECK(testing::same_bytes(r.render.depth, seq.depth));
+      CHECK(testing::same_bytes(r.render.normal, seq.normal));
+      CHECK(testing::same_bytes(r.render.primitive, seq.primitive));
       CHECK(r.render.stats.rays.total() == seq.stats.rays.total());
       CHECK(r.render.stats.traversal.triangle_tests + r.render.stats.traversal.sphere_tests ==
             seq.stats.traversal.triangle_tests + seq.stats.traversal.sphere_tests);
@@ -74,7 +54,7 @@ TEST_CASE("replicated: images and AOVs are bit-identical to sequential for N in 
 }
 
 TEST_CASE("replicated: a database that does not fit a node fails at once with both sizes") {
-  const Built b = build("tetra", 4);  // 1024 triangles
+  const testing::BuiltScene b = testing::build_spd("tetra", 4);  // 1024 triangles
   ReplicatedParams p;
   p.render.width = p.render.height = 8;
   p.machine.nodes = 4;
@@ -91,7 +71,7 @@ TEST_CASE("replicated: a database that does not fit a node fails at once with bo
 }
 
 TEST_CASE("replicated: 256 nodes on this machine terminate cleanly with the sequential image") {
-  const Built b = build("balls", 1);
+  const testing::BuiltScene b = testing::build_spd("balls", 1);
   core::RenderParams rp;
   rp.width = 48;
   rp.height = 40;
@@ -101,7 +81,7 @@ TEST_CASE("replicated: 256 nodes on this machine terminate cleanly with the sequ
   p.machine.nodes = 256;
   p.machine.timeout_s = 120;  // a hang fails the test instead of blocking CI
   const ReplicatedResult r = render_replicated(b.db, b.grid, p);
-  CHECK(same_bytes(r.render.color, seq.color));
+  CHECK(testing::same_bytes(r.render.color, seq.color));
   CHECK(r.run.nodes.size() == 256);
   CHECK(r.run.total().received[std::size_t(MessageType::kShutdown)].messages == 256);
 }

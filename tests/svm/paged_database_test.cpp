@@ -7,7 +7,7 @@
 #include <stdexcept>
 
 #include "svm/paged_database.h"
-#include "svm_test_support.h"
+#include "test_scenes.h"
 
 using namespace raynode;
 using namespace raynode::svm;

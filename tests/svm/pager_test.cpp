@@ -5,7 +5,7 @@
 
 #include "nodes/machine.h"
 #include "svm/pager.h"
-#include "svm_test_support.h"
+#include "test_scenes.h"
 
 using namespace raynode;
 using namespace raynode::svm;
@@ -83,17 +83,17 @@ TEST_CASE("pager: recency is a page's first access in each pixel; later accesses
   with_two_nodes(image, 2, [&](Pager& pager, nodes::NodeContext&) {
     const std::uint32_t A = 1, B = 3, C = 5;
     pager.begin_pixel();
-    pager.access<ObjectKind::kPrimitive>(A);
-    pager.access<ObjectKind::kList>(B);
-    pager.access<ObjectKind::kPrimitive>(A);  // same pixel: TLB, A stays older than B
+    pager.access(A);
+    pager.access(B);
+    pager.access(A);  // same pixel: TLB, A stays older than B
     CHECK(pager.stats().table_lookups == 2);
     pager.begin_pixel();
-    pager.access<ObjectKind::kPrimitive>(A);  // a new pixel: A becomes the most recent
-    pager.access<ObjectKind::kDirectory>(C);  // evicts B, not A
+    pager.access(A);  // a new pixel: A becomes the most recent
+    pager.access(C);  // evicts B, not A
     CHECK(pager.resident(A));
     CHECK(!pager.resident(B));
     CHECK(pager.resident(C));
-    pager.access<ObjectKind::kDirectory>(B);  // same pixel: A and C were first touched in it, A first: A goes
+    pager.access(B);  // same pixel: A and C were first touched in it, A first: A goes
     CHECK(!pager.resident(A));
     CHECK(pager.resident(C));
     CHECK(pager.stats().accesses == 6);
@@ -110,11 +110,11 @@ TEST_CASE("pager: pages per pixel counts distinct pages, home and remote, and re
   const PagedImage image = build_paged_image(b.db, b.grid, 64);
   with_two_nodes(image, 4, [&](Pager& pager, nodes::NodeContext&) {
     pager.begin_pixel();
-    for (std::uint32_t p : {0u, 0u, 2u, 1u, 1u, 3u, 0u}) pager.access<ObjectKind::kPrimitive>(p);
+    for (std::uint32_t p : {0u, 0u, 2u, 1u, 1u, 3u, 0u}) pager.access(p);
     CHECK(pager.pixel_pages() == 4);
     pager.begin_pixel();
-    pager.access<ObjectKind::kList>(2);
-    pager.access<ObjectKind::kList>(2);
+    pager.access(2);
+    pager.access(2);
     CHECK(pager.pixel_pages() == 1);
     pager.end_pixel();
     CHECK(pager.stats().pixels == 2);

@@ -9,7 +9,7 @@
 
 #include "core/render.h"
 #include "svm/svm.h"
-#include "svm_test_support.h"
+#include "test_scenes.h"
 
 using namespace raynode;
 using namespace raynode::svm;

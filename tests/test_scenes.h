@@ -1,5 +1,5 @@
-// Shared helpers of the svm tests: small SPD databases and byte-exact
-// image comparison.
+// Helpers shared by the test suites: a small SPD database with its grid,
+// and byte-exact image comparison.
 #pragma once
 
 #include <cstring>
