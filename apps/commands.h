@@ -28,5 +28,9 @@ void register_bench_command(CLI::App& app);
 /// bench mailbox, bench nodes (after register_bench_command).
 void register_bench_nodes_commands(CLI::App& app);
 void register_render_command(CLI::App& app);
+/// sweep nodes|cache|page-size (apps/cmd_sweep.cpp).
+void register_sweep_commands(CLI::App& app);
+/// bench quality (after register_bench_command; apps/cmd_bench_quality.cpp).
+void register_bench_quality_command(CLI::App& app);
 
 }  // namespace raynode::apps

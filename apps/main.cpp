@@ -34,6 +34,8 @@ int main(int argc, char** argv) {
   apps::register_bench_command(app);
   apps::register_bench_nodes_commands(app);
   apps::register_render_command(app);
+  apps::register_sweep_commands(app);
+  apps::register_bench_quality_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -280,6 +280,14 @@ nlohmann::json RunReport::to_json(bool per_node) const {
   return j;
 }
 
+ComputeClock parse_compute_clock(const std::string& text) {
+  if (text == "cpu") return ComputeClock::kCpu;
+  if (text == "model") return ComputeClock::kModel;
+  throw std::invalid_argument("the clock must be cpu or model, got '" + text + "'");
+}
+
+const char* compute_clock_name(ComputeClock c) { return c == ComputeClock::kModel ? "model" : "cpu"; }
+
 std::size_t parse_bytes(const std::string& text) {
   std::size_t i = 0;
   while (i < text.size() && std::isdigit(static_cast<unsigned char>(text[i]))) ++i;

@@ -54,6 +54,8 @@ struct MachineParams {
   /// waiting one hands over. A negative window turns scheduling off.
   std::uint32_t run_permits = 0;
   double schedule_window_s = 200e-6;
+  /// What advances a node's clock while it computes (node.h, "Virtual time").
+  ComputeClock clock = ComputeClock::kCpu;
 };
 
 inline constexpr std::uint32_t kMaxNodes = 4096;
@@ -139,6 +141,11 @@ class Machine {
  private:
   MachineParams params_;
 };
+
+/// "cpu" or "model" (--clock). Throws std::invalid_argument naming the text.
+ComputeClock parse_compute_clock(const std::string& text);
+/// "cpu" or "model".
+const char* compute_clock_name(ComputeClock c);
 
 /// Parses a byte size: "4MiB", "512KiB", "1GiB", "4M", "1048576" (bytes).
 /// Throws std::invalid_argument with the text on a malformed or zero size.

@@ -49,6 +49,14 @@ class RunAborted : public std::runtime_error {
   RunAborted() : std::runtime_error("run aborted") {}
 };
 
+/// What advances a node's clock while it computes.
+enum class ComputeClock {
+  kCpu,    ///< the thread's own CPU time (CLOCK_THREAD_CPUTIME_ID), as DESIGN.md states
+  kModel,  ///< a cost model of the work done (operation counts x calibrated unit costs,
+           ///< core/cost_model.h): deterministic, and blind to the host's cache refills
+           ///< and thread switches
+};
+
 /// How a blocking receive books the time it waits.
 enum class WaitKind {
   kIdle,           ///< nothing to do (waiting for work or for the end)
