@@ -62,6 +62,7 @@ struct RenderOptions {
   std::string work_item = "3x3";
   double timeout_s = 0;
   double schedule_window_us = 200;
+  std::string clock = "cpu";
   // svm
   std::uint32_t page_size = 1024;
   std::string cache;  ///< "" = all free memory, "N" pages or "P%" of the database
@@ -113,7 +114,13 @@ nodes::MachineParams machine_params(const RenderOptions& o) {
   } catch (const std::invalid_argument& e) {
     throw UsageError(std::string("--node-memory/--topology: ") + e.what());
   }
-  m.network = nodes::make_network(o.network, o.network_scale);
+  try {
+    m.clock = nodes::parse_compute_clock(o.clock);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--clock: ") + e.what());
+  }
+  m.network = nodes::make_network(o.network, o.network_scale,
+                                  m.clock == nodes::ComputeClock::kModel ? &m.cost_model : nullptr);
   m.timeout_s = o.timeout_s;
   m.schedule_window_s = o.schedule_window_us * 1e-6;
   return m;
@@ -500,6 +507,12 @@ void register_render_command(CLI::App& app) {
                 "Node modes: virtual-time scheduling window in microseconds: a node this far ahead of a waiting "
                 "one hands the CPU over (smaller = closer to a real parallel machine, more thread switches; "
                 "negative = off, the OS schedules the node threads)")
+      ->capture_default_str();
+  c->add_option("--clock", o->clock,
+                "Node modes: what advances a node's virtual clock while it computes: cpu (its thread's CPU time) "
+                "or model (operation counts x calibrated unit costs: repeatable, free of the host's thread "
+                "switches; see `raynode bench cost-model`)")
+      ->check(CLI::IsMember({"cpu", "model"}))
       ->capture_default_str();
   c->add_option("--timeout", o->timeout_s, "Node modes: stop with an error after this many wall seconds (0 = never)")
       ->check(CLI::NonNegativeNumber);

@@ -32,5 +32,7 @@ void register_render_command(CLI::App& app);
 void register_sweep_commands(CLI::App& app);
 /// bench quality (after register_bench_command; apps/cmd_bench_quality.cpp).
 void register_bench_quality_command(CLI::App& app);
+/// bench cost-model (after register_bench_command; apps/cmd_bench_cost_model.cpp).
+void register_bench_cost_model_command(CLI::App& app);
 
 }  // namespace raynode::apps

@@ -36,6 +36,7 @@ int main(int argc, char** argv) {
   apps::register_render_command(app);
   apps::register_sweep_commands(app);
   apps::register_bench_quality_command(app);
+  apps::register_bench_cost_model_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -101,6 +101,19 @@ struct NodeState {
   ArenaArray<FirstHitRecord> first_hits;
   core::ShadingScratch* scratch = nullptr;
   NodeFlowStats stats;
+  core::CostModel cost_model;
+
+  /// The model clock's work meter (NodeContext::set_work_meter): the
+  /// tracer's operations, plus a traversal start (priced as a shadow ray)
+  /// for each received ray, whose segment here continues a ray begun in
+  /// another region.
+  static double work_seconds(const void* self) {
+    const NodeState& s = *static_cast<const NodeState*>(self);
+    std::uint64_t continued = 0;
+    for (std::uint64_t r : s.stats.rays_received) continued += r;
+    return s.cost_model.seconds(s.scratch->stats.rays, s.scratch->traversal.stats) +
+           s.cost_model.unit_s[std::size_t(core::CostFeature::kShadowRay)] * double(continued);
+  }
   ~NodeState() {
     if (arena) arena->destroy(scratch);
   }
@@ -630,10 +643,12 @@ DataflowResult render_dataflow(const core::Database& db, const core::Grid& grid,
     s->contributions = ArenaArray<Contribution>(a, budget.contribution_slots, "its contribution buffer");
     s->first_hits = ArenaArray<FirstHitRecord>(a, budget.first_hit_slots, "its first-hit buffer");
     s->scratch = a.create<core::ShadingScratch>("its tracing scratch");
+    s->cost_model = machine.params().cost_model;
     states[ctx.id()] = std::move(s);
   };
 
   auto node_main = [&](NodeContext& ctx) {
+    ctx.set_work_meter(&NodeState::work_seconds, states[ctx.id()].get());
     NodeTracer(ctx, *states[ctx.id()], want_first).run();
   };
 

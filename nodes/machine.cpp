@@ -209,6 +209,7 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
   RunReport report;
   report.network = params_.network.name;
   report.topology = topology_name(params_.topology);
+  report.clock = compute_clock_name(params_.clock);
   for (NodeId i = 0; i < n; ++i) {
     report.nodes.push_back(make_report(*state.nodes[i], final_clock[i]));
     const NodeReport& nr = report.nodes.back();
@@ -257,6 +258,7 @@ nlohmann::json RunReport::to_json(bool per_node) const {
   j["count"] = nodes.size();
   j["network"] = network;
   j["topology"] = topology;
+  j["clock"] = clock;
   j["parallel_time_s"] = parallel_time_s;
   j["wall_s"] = wall_s;
   std::size_t peak = 0;

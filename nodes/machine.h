@@ -31,6 +31,7 @@
 #include <string>
 #include <vector>
 
+#include "core/cost_model.h"
 #include "nodes/node.h"
 #include "nodes/scheduler.h"
 
@@ -56,6 +57,8 @@ struct MachineParams {
   double schedule_window_s = 200e-6;
   /// What advances a node's clock while it computes (node.h, "Virtual time").
   ComputeClock clock = ComputeClock::kCpu;
+  /// The unit costs the modes' work meters use under ComputeClock::kModel.
+  core::CostModel cost_model = core::default_cost_model();
 };
 
 inline constexpr std::uint32_t kMaxNodes = 4096;
@@ -85,6 +88,7 @@ struct RunReport {
   double wall_s = 0;           ///< real seconds the run took
   std::string network;         ///< preset name
   std::string topology;
+  std::string clock;           ///< "cpu" or "model" (MachineParams::clock)
 
   /// Counters summed over the nodes (not the host).
   NodeCounters total() const;

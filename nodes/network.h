@@ -32,6 +32,8 @@
 #include <cstdint>
 #include <string>
 
+#include "core/cost_model.h"
+
 namespace raynode::nodes {
 
 /// iPSC/2 seconds per ray on one node (Teapot, Tables 2 and 3): 11522 s / 1,397,473 rays.
@@ -52,12 +54,17 @@ struct NetworkModel {
 };
 
 /// A preset by name ("none", "ipsc2", "cluster"). `seconds_per_ray` is this
-/// machine's tracing speed (used by ipsc2 only; <= 0 means calibrate now).
+/// machine's tracing speed (used by ipsc2 only; <= 0 means calibrate now:
+/// with `model`, the model clock's seconds per ray, else measured CPU time).
 /// Throws std::invalid_argument for an unknown name.
-NetworkModel make_network(const std::string& name, double seconds_per_ray = 0);
+NetworkModel make_network(const std::string& name, double seconds_per_ray = 0,
+                          const core::CostModel* model = nullptr);
 
 /// Seconds per ray of the sequential tracer on this machine, one thread:
 /// teapot:8 at 64x64 pixels, best of 3 (about 0.1 s in all).
 double calibrate_seconds_per_ray();
+/// The same render's seconds per ray under the cost model (the model
+/// clock's): deterministic.
+double model_seconds_per_ray(const core::CostModel& model);
 
 }  // namespace raynode::nodes

@@ -48,7 +48,8 @@ NodeContext::NodeContext(MachineState& machine, NodeId id, std::size_t budget, s
       receive_buffer_(arena_, max_payload, "its receive buffer"),
       backlog_(&arena_),
       deferred_(&arena_),
-      backlog_current_(&arena_) {}
+      backlog_current_(&arena_),
+      model_clock_(machine.params.clock == ComputeClock::kModel) {}
 
 NodeContext::~NodeContext() {
   backlog_.clear();
@@ -62,6 +63,15 @@ const NetworkModel& NodeContext::network() const { return machine_->params.netwo
 
 void NodeContext::sync_compute() {
   if (id_ == kHost) return;  // the host is outside the emulated machine: its bookkeeping takes no virtual time
+  if (model_clock_) {
+    if (!meter_) return;
+    const double work = meter_(meter_state_);
+    const double d = std::max(0.0, work - cpu_mark_);
+    clock_ += d;
+    counters_.busy_s += d;
+    cpu_mark_ = work;
+    return;
+  }
   const double cpu = thread_cpu_seconds();
   const double d = std::max(0.0, cpu - cpu_mark_);
   clock_ += d;
@@ -70,7 +80,7 @@ void NodeContext::sync_compute() {
 }
 
 void NodeContext::end_messaging() {
-  if (id_ == kHost) return;
+  if (id_ == kHost || model_clock_) return;  // the model clock never reads the CPU clock
   const double cpu = thread_cpu_seconds();
   counters_.overhead_cpu_s += std::max(0.0, cpu - cpu_mark_);
   cpu_mark_ = cpu;
@@ -94,6 +104,12 @@ bool NodeContext::try_run() {
   return s.try_run(id_, now());
 }
 
+bool NodeContext::try_resume() {
+  Scheduler& s = *machine_->scheduler;
+  if (id_ == kHost || !s.enabled() || s.granted_flag(id_).load(std::memory_order_acquire)) return true;
+  return s.try_run(id_, now(), true);
+}
+
 bool NodeContext::yield_point() {
   if (id_ == kHost || !machine_->scheduler->enabled()) return true;
   return machine_->scheduler->yield_point(id_, now());
@@ -101,6 +117,10 @@ bool NodeContext::yield_point() {
 
 void NodeContext::release_run() {
   if (id_ != kHost) machine_->scheduler->release(id_);
+}
+
+void NodeContext::await_reply() {
+  if (id_ != kHost && machine_->scheduler->enabled()) machine_->scheduler->await_reply(id_, now());
 }
 
 void NodeContext::wait_for_mail(double timeout_s) {
@@ -114,7 +134,20 @@ void NodeContext::wait_for_mail(double timeout_s) {
 
 void NodeContext::mark_work_done() { work_done_s_ = now(); }
 
-void NodeContext::reset_cpu_mark() { cpu_mark_ = thread_cpu_seconds(); }
+void NodeContext::reset_cpu_mark() {
+  // Metered work is all the node's own (nothing of the emulator is in it):
+  // never dropped.
+  if (!model_clock_) cpu_mark_ = thread_cpu_seconds();
+}
+
+void NodeContext::set_work_meter(WorkMeter meter, const void* state) {
+  sync_compute();
+  meter_ = meter;
+  meter_state_ = state;
+  if (model_clock_) cpu_mark_ = meter_ ? meter_(meter_state_) : 0.0;
+}
+
+ComputeClock NodeContext::compute_clock() const { return machine_->params.clock; }
 
 void NodeContext::check_stop() const {
   if (machine_->stop.load(std::memory_order_acquire)) throw RunAborted();

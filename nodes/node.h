@@ -8,7 +8,10 @@
 // arena.
 //
 // Virtual time. The clock advances by the thread's own CPU time while node
-// code computes (sampled at each messaging call), by explicit charges
+// code computes (sampled at each messaging call) — or, under the model
+// clock (--clock model, MachineParams::clock), by the growth of the node's
+// work meter (set_work_meter: the cost model of the rays it traced,
+// core/cost_model.h) — by explicit charges
 // (charge()), and by waiting: a blocking receive sets clock = max(clock,
 // arrival) and books the gap as idle or communication time. CPU time spent
 // inside the messaging layer itself is *not* added to the clock (the network
@@ -118,19 +121,36 @@ class NodeContext {
   void mark_work_done();
   double work_done_time() const { return work_done_s_; }
   /// Starts measuring from here: drops CPU time since the last sample (used
-  /// after a load phase that is not part of the run).
+  /// after a load phase, or a wait, that is not the node's work). No effect
+  /// under the model clock: metered work is never dropped.
   void reset_cpu_mark();
+  /// The modelled compute seconds of this node's work so far: `meter(state)`
+  /// must be cheap and never decrease. Under ComputeClock::kModel the clock
+  /// advances by its growth at every sample (a node without a meter then
+  /// computes for free); under kCpu it is ignored. Measuring starts at the
+  /// call. Owner thread only; `state` must outlive the node's main.
+  using WorkMeter = double (*)(const void* state);
+  void set_work_meter(WorkMeter meter, const void* state);
+  ComputeClock compute_clock() const;
 
   // --- Virtual-time scheduling (scheduler.h) ------------------------------
   /// May this node compute now? Takes a run permit if one is free; else the
   /// node is queued and the caller should wait_for_mail() (which also ends
   /// when the permit arrives) and ask again.
   bool try_run();
+  /// try_run() for a node resuming inside a work unit after awaiting a
+  /// reply (scheduler.h: it gets the next free permit whatever its clock).
+  bool try_resume();
   /// Between work units: false if the permit went to a node lagging behind
   /// in virtual time (then wait_for_mail() and try_run() again).
   bool yield_point();
   /// Gives up the run permit (receive() does so itself before blocking).
   void release_run();
+  /// Gives up the run permit to block for the reply to this node's own
+  /// request (a work grant, a page): until it runs again its clock holds
+  /// the others back (scheduler.h). The caller must keep serving its mail
+  /// while it waits.
+  void await_reply();
 
   // --- Sending ------------------------------------------------------------
   /// Sends `parts` (concatenated) to `dest` as a message of `type`. Departs
@@ -212,7 +232,10 @@ class NodeContext {
   std::pmr::deque<Parked> deferred_;  ///< set aside by defer(), not seen by poll()
   std::pmr::vector<std::byte> backlog_current_;
   double clock_ = 0;
-  double cpu_mark_ = 0;
+  double cpu_mark_ = 0;  ///< CPU seconds (kCpu) or metered seconds (kModel) at the last sample
+  bool model_clock_ = false;
+  WorkMeter meter_ = nullptr;
+  const void* meter_state_ = nullptr;
   double work_done_s_ = -1;
   NodeCounters counters_;
 };

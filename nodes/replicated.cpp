@@ -39,6 +39,13 @@ struct NodeState {
   Arena* arena = nullptr;
   core::RenderStats stats;
   WorkStats work;
+  core::CostModel cost_model;
+
+  /// The model clock's work meter (NodeContext::set_work_meter).
+  static double work_seconds(const void* self) {
+    const NodeState& s = *static_cast<const NodeState*>(self);
+    return s.cost_model.seconds(s.scratch->stats.rays, s.scratch->traversal.stats);
+  }
 
   ~NodeState() {
     if (arena) arena->destroy(scratch);
@@ -104,6 +111,7 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
     s->lights = copy_to_arena(a, std::span<const core::Light>(db.lights), "the lights");
     s->pixels = ArenaArray<float>(a, item_floats, "its pixel buffer");
     s->scratch = a.create<core::ShadingScratch>("its tracing scratch");
+    s->cost_model = m.cost_model;
     states[ctx.id()] = std::move(s);
   };
   auto teardown = [&](NodeContext& ctx) { states[ctx.id()].reset(); };
@@ -117,6 +125,7 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
         std::span<const core::Light>(s.lights.span()), s.background, s.render.max_depth, s.render.min_weight);
     core::ShadingScratch& scratch = *s.scratch;
     const bool first = s.render.any_aov();
+    ctx.set_work_meter(&NodeState::work_seconds, &s);
     s.work = run_work_farm(ctx, s.submap, params.item_w, params.item_h,
                            [&](NodeContext& c, const Rect& r) {
                              float* o = s.pixels.data();

@@ -14,6 +14,7 @@ Scheduler::Scheduler(std::uint32_t nodes, std::uint32_t permits, double window,
       free_permits_(permits),
       state_(nodes, kActiveWaiting),
       clock_(nodes, 0.0),
+      resuming_(nodes, 0),
       granted_(new std::atomic<bool>[nodes]) {
   for (std::uint32_t i = 0; i < nodes; ++i) granted_[i].store(false, std::memory_order_relaxed);
 }
@@ -28,11 +29,17 @@ double Scheduler::min_active_clock() const {
 void Scheduler::grant_eligible(std::vector<std::uint32_t>& wake) {
   const double limit = min_active_clock() + window_;
   while (free_permits_ > 0) {
-    // The lowest queued node, if it may run.
+    // A node resuming inside its work unit first, whatever its clock; else
+    // the lowest queued node, if it may run.
     std::int64_t best = -1;
-    for (std::size_t j = 0; j < state_.size(); ++j)
-      if (state_[j] == kActiveWaiting && (best < 0 || clock_[j] < clock_[std::size_t(best)])) best = std::int64_t(j);
-    if (best < 0 || clock_[std::size_t(best)] > limit) return;
+    for (std::size_t j = 0; j < state_.size(); ++j) {
+      if (state_[j] != kActiveWaiting) continue;
+      if (best < 0 || (resuming_[j] && !resuming_[std::size_t(best)]) ||
+          (resuming_[j] == resuming_[std::size_t(best)] && clock_[j] < clock_[std::size_t(best)]))
+        best = std::int64_t(j);
+    }
+    if (best < 0 || (!resuming_[std::size_t(best)] && clock_[std::size_t(best)] > limit)) return;
+    resuming_[std::size_t(best)] = false;
     --free_permits_;
     state_[std::size_t(best)] = kRunning;
     // release: the grantee's acquire load in its wait sees the permit.
@@ -48,7 +55,7 @@ void Scheduler::take_permit_back(std::uint32_t node) {
   }
 }
 
-bool Scheduler::try_run(std::uint32_t node, double clock) {
+bool Scheduler::try_run(std::uint32_t node, double clock, bool resume) {
   if (!enabled_) return true;
   if (granted_[node].load(std::memory_order_acquire)) return true;
   std::vector<std::uint32_t> wake;
@@ -58,6 +65,7 @@ bool Scheduler::try_run(std::uint32_t node, double clock) {
     // Granted between the lock-free check and here: do not overwrite it.
     if (state_[node] == kRunning) return true;
     state_[node] = kActiveWaiting;
+    if (resume) resuming_[node] = true;
     clock_[node] = clock;
     grant_eligible(wake);
     ok = state_[node] == kRunning;
@@ -92,14 +100,29 @@ bool Scheduler::yield_point(std::uint32_t node, double clock) {
 std::string Scheduler::describe() {
   if (!enabled_) return "scheduler off";
   std::lock_guard<std::mutex> lock(mutex_);
-  std::string running, queued;
-  std::size_t n_running = 0, n_queued = 0;
+  std::string running, queued, awaiting;
+  std::size_t n_running = 0, n_queued = 0, n_awaiting = 0;
   for (std::size_t j = 0; j < state_.size(); ++j) {
     if (state_[j] == kRunning && n_running++ < 8) running += fmt::format(" {}@{:.6g}", j, clock_[j]);
     if (state_[j] == kActiveWaiting && n_queued++ < 8) queued += fmt::format(" {}@{:.6g}", j, clock_[j]);
+    if (state_[j] == kAwaiting && n_awaiting++ < 8) awaiting += fmt::format(" {}@{:.6g}", j, clock_[j]);
   }
-  return fmt::format("scheduler: {} free permits, {} running [{} ], {} queued [{} ], window {:.3g} s", free_permits_,
-                     n_running, running, n_queued, queued, window_);
+  return fmt::format("scheduler: {} free permits, {} running [{} ], {} queued [{} ], {} awaiting a reply [{} ], "
+                     "window {:.3g} s",
+                     free_permits_, n_running, running, n_queued, queued, n_awaiting, awaiting, window_);
+}
+
+void Scheduler::await_reply(std::uint32_t node, double clock) {
+  if (!enabled_) return;
+  std::vector<std::uint32_t> wake;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    take_permit_back(node);
+    state_[node] = kAwaiting;
+    clock_[node] = clock;
+    grant_eligible(wake);
+  }
+  for (std::uint32_t j : wake) wake_(j);
 }
 
 void Scheduler::release(std::uint32_t node) {

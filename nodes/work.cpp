@@ -187,8 +187,27 @@ WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_
       ++farm.stats.requests_sent;
       request_out = true;
     }
-    m = ctx.receive(WaitKind::kIdle);
-    done = farm.handle(m, pool, have_grant, grant);
+    // Wait for the grant (or our request's return). Other mail (requests
+    // to forward, the mode's messages) is served at interrupt level at its
+    // own arrival time and must not move our clock: only the message we
+    // wait for does (a forwarded request stamped later than our grant would
+    // otherwise count as idle time we never had).
+    bool released = false;
+    while (true) {
+      if (!ctx.poll(m)) {
+        if (!released) {
+          ctx.await_reply();  // blocked: let a waiting node compute, but not run ahead of us
+          released = true;
+        }
+        ctx.wait_for_mail(0);
+        continue;
+      }
+      const bool awaited = m.type() == MessageType::kWorkGrant ||
+                           (m.type() == MessageType::kWorkRequest && m.as<WorkRequestMsg>().origin == ctx.id());
+      if (awaited) ctx.advance_to(m.header.arrival_time, WaitKind::kIdle);
+      done = farm.handle(m, pool, have_grant, grant);
+      if (awaited) break;
+    }
   }
   ctx.release_run();  // our work is over
   ctx.mark_work_done();
@@ -196,7 +215,8 @@ WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_
   ctx.send(kHost, MessageType::kNodeDone, WorkRequestMsg{ctx.id(), 0});
   // Serve others (forward their requests, mode messages) until shutdown.
   while (true) {
-    m = ctx.receive(WaitKind::kIdle);
+    // Interrupt level (no clock move): our work time is recorded.
+    while (!ctx.poll(m)) ctx.wait_for_mail(0);
     if (m.type() == MessageType::kShutdown) break;
     farm.handle(m, pool, have_grant, grant);
     if (have_grant) throw std::logic_error(fmt::format("{}: a work grant after its work ended", node_name(ctx.id())));

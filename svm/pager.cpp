@@ -168,14 +168,14 @@ const std::byte* Pager::fault(std::uint32_t page) {
       // would be charged as work). The wait itself is not work: it is
       // dropped from the clock, which advance_to() below sets to the
       // reply's arrival. Then block, giving the run permit away.
-      if (spins < kSpinYields) {
+      if (spins < kSpinYields && ctx_.compute_clock() == nodes::ComputeClock::kCpu) {
         ++spins;
         std::this_thread::yield();
         ctx_.reset_cpu_mark();
         continue;
       }
       if (!released) {
-        ctx_.release_run();
+        ctx_.await_reply();
         released = true;
       }
       ctx_.wait_for_mail(0);
@@ -200,7 +200,7 @@ const std::byte* Pager::fault(std::uint32_t page) {
   push_front(victim);
   table_[page].frame = victim;
   // Compute again only with a run permit, answering requests meanwhile.
-  while (released && !ctx_.try_run()) {
+  while (released && !ctx_.try_resume()) {
     ctx_.wait_for_mail(0);
     while (ctx_.poll(m)) serve_or_defer(m);
   }

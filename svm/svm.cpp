@@ -45,6 +45,19 @@ struct NodeState {
   core::RenderStats stats;
   nodes::WorkStats work;
   PagerStats pager_stats;
+  core::CostModel cost_model;
+
+  /// The model clock's work meter (NodeContext::set_work_meter): the
+  /// tracer's operations plus the pager's accesses, lookups and faults.
+  static double work_seconds(const void* self) {
+    const NodeState& s = *static_cast<const NodeState*>(self);
+    core::CostCounts c = core::cost_counts(s.scratch->stats.rays, s.scratch->traversal.stats);
+    const PagerStats& p = s.pager->stats();
+    c[std::size_t(core::CostFeature::kPageAccess)] = double(p.accesses);
+    c[std::size_t(core::CostFeature::kPageLookup)] = double(p.table_lookups);
+    c[std::size_t(core::CostFeature::kPageFault)] = double(p.misses);
+    return s.cost_model.seconds(c);
+  }
 
   ~NodeState() {
     if (arena) {
@@ -169,6 +182,7 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
     s->lights = nodes::copy_to_arena(a, in.lights, "the lights");
     s->pixels = nodes::ArenaArray<float>(a, item_floats, "its pixel buffer");
     s->scratch = a.create<core::ShadingScratch>("its tracing scratch");
+    s->cost_model = m.cost_model;
     s->pager = a.create<Pager>("its pager", ctx, layout, cache[ctx.id()]);
     for (std::uint32_t p = ctx.id(); p < layout.pages; p += m.nodes)
       std::memcpy(s->pager->home_frame(p), in.image->page(p).data(), layout.page_size);
@@ -188,6 +202,7 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
         std::span<const core::Light>(s.lights.span()), s.background, s.render.max_depth, s.render.min_weight);
     core::ShadingScratch& scratch = *s.scratch;
     const bool first = s.render.any_aov();
+    ctx.set_work_meter(&NodeState::work_seconds, &s);
     s.work = nodes::run_work_farm(
         ctx, s.submap, params.item_w, params.item_h,
         [&](NodeContext& c, const Rect& r) {

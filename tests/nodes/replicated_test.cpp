@@ -85,3 +85,34 @@ TEST_CASE("replicated: 256 nodes on this machine terminate cleanly with the sequ
   CHECK(r.run.nodes.size() == 256);
   CHECK(r.run.total().received[std::size_t(MessageType::kShutdown)].messages == 256);
 }
+
+TEST_CASE("replicated: under the model clock a node's busy time is exactly the modelled cost of its rays") {
+  const testing::BuiltScene b = testing::build_spd("balls", 1);
+  core::RenderParams rp;
+  rp.width = 48;
+  rp.height = 32;
+  for (std::uint32_t n : {1u, 4u}) {
+    CAPTURE(n);
+    ReplicatedParams p;
+    p.render = rp;
+    p.machine.nodes = n;
+    p.machine.node_memory = 8 * kMiB;
+    p.machine.timeout_s = 120;
+    p.machine.clock = ComputeClock::kModel;  // network none: no service charges either
+    const ReplicatedResult r1 = render_replicated(b.db, b.grid, p);
+    double busy = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double node_model = p.machine.cost_model.seconds(r1.tracing[i].rays, r1.tracing[i].traversal);
+      CHECK(r1.run.nodes[i].counters.busy_s == doctest::Approx(node_model).epsilon(1e-9));
+      busy += r1.run.nodes[i].counters.busy_s;
+    }
+    const double total_model = p.machine.cost_model.seconds(r1.render.stats.rays, r1.render.stats.traversal);
+    CHECK(busy == doctest::Approx(total_model).epsilon(1e-9));
+    CHECK(r1.run.parallel_time_s >= total_model / n * (1 - 1e-9));
+    if (n == 1) {  // one node: T_1 is the modelled cost, the same in every run
+      CHECK(r1.run.parallel_time_s == doctest::Approx(total_model).epsilon(1e-9));
+      const ReplicatedResult r2 = render_replicated(b.db, b.grid, p);
+      CHECK(r2.run.parallel_time_s == r1.run.parallel_time_s);
+    }
+  }
+}

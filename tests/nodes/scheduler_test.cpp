@@ -1,5 +1,6 @@
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <vector>
 
 #include "nodes/scheduler.h"
@@ -59,4 +60,21 @@ TEST_CASE("scheduler: disabled for a single node or a negative window") {
   CHECK_FALSE(b.enabled());
   CHECK(b.try_run(3, 0));
   CHECK(b.yield_point(3, 1e9));
+}
+
+TEST_CASE("scheduler: a node awaiting a reply holds the others back; resuming inside a work unit ignores the window") {
+  std::vector<std::uint32_t> woken;
+  Scheduler s(3, 2, 0.1, [&](std::uint32_t n) { woken.push_back(n); });
+  CHECK(s.try_run(0, 0.0));
+  CHECK(s.try_run(1, 0.0));
+  s.release(2);           // node 2 blocks for mail (it held nobody back)
+  s.await_reply(0, 0.2);  // node 0 sent a request at 0.2 and blocks for the answer
+  CHECK_FALSE(s.yield_point(1, 0.5));  // 0.5 > 0.2 + 0.1: node 1 may not run ahead of the awaiting node
+  CHECK_FALSE(s.try_run(2, 0.4));      // nor may node 2, although two permits are free
+  woken.clear();
+  CHECK(s.try_run(0, 0.25));  // the reply came: node 0 runs again (lowest clock)
+  // A node resuming after a page fault gets a free permit whatever its clock.
+  CHECK(s.try_run(2, 0.4, true));
+  s.release(0);  // node 0 done: node 1 (0.5) is within the window of node 2 (0.4)
+  CHECK(std::find(woken.begin(), woken.end(), 1u) != woken.end());
 }

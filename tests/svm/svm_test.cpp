@@ -190,3 +190,28 @@ TEST_CASE("svm: node threads cannot read the host's page image during the render
     }
   }
 }
+
+TEST_CASE("svm: under the model clock with the ipsc2 network every node count finishes with the sequential image") {
+  // Regression: a node awaiting a page held the others back while a node
+  // queued for its permit after a fault set aside the awaiting node's work
+  // request — a deadlock at 16 nodes. Faults resume with the next free permit.
+  const testing::BuiltScene b = testing::build_spd("teapot", 3);
+  core::RenderParams rp = small_params(1, 0).render;
+  const core::RenderResult seq = core::render(b.db, b.grid, rp);
+  for (std::uint32_t n : {4u, 16u, 64u})
+    for (std::uint32_t cache : {3u, 0u}) {
+      CAPTURE(n);
+      CAPTURE(cache);
+      SvmParams p = small_params(n, cache);
+      p.page_size = 256;
+      p.machine.clock = nodes::ComputeClock::kModel;
+      p.machine.network = nodes::make_network("ipsc2", 1e-6);
+      const SvmResult r = render_svm(b.db, b.grid, p);
+      CHECK(testing::same_bytes(r.render.color, seq.color));
+      CHECK(r.pager_total().misses > 0);
+      double busy = 0;
+      for (const nodes::NodeReport& node : r.run.nodes) busy += node.counters.busy_s;
+      CHECK(r.run.parallel_time_s >= busy / double(n) * (1 - 1e-9));
+      CHECK(r.run.total().communication_s > 0);
+    }
+}

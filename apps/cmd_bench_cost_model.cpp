@@ -1,0 +1,190 @@
+// `raynode bench cost-model`: fits the model clock's unit costs
+// (core/cost_model.h) on this machine and prints them with the quality of
+// the fit. Nothing here is a pass/fail check.
+//
+// Method: each scene is rendered by the sequential tracer, one thread, in
+// 8x8-pixel tiles; each tile's CPU time (least of --repeat passes) and its
+// operation counts make one sample; the tracer's unit costs are the
+// non-negative least-squares fit of time on counts, relative error. The
+// pager's costs (page access, page-table lookup, page fault) are then fitted
+// on whole svm runs, one and two nodes (network none, every page cached),
+// per node: busy CPU time minus the tracer's modelled time, on the pager's
+// counts.
+#include <fmt/core.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "apps/commands.h"
+#include "core/cost_model.h"
+#include "core/database.h"
+#include "core/direct_view.h"
+#include "core/grid.h"
+#include "core/render.h"
+#include "core/scene_source.h"
+#include "nodes/cpu_time.h"
+#include "svm/svm.h"
+
+namespace raynode::apps {
+
+namespace {
+
+struct CostModelOptions {
+  std::vector<std::string> scenes{"teapot:8", "mount:6", "rings:4", "rings:4@1", "tetra:8", "balls:3"};
+  int width = 128, height = 128;
+  int repeat = 3;
+  bool pager = true;
+};
+
+/// "name:size@R" -> SceneSource with --tessellate R.
+core::SceneSource parse_scene(const std::string& text) {
+  core::SceneSource s;
+  const std::size_t at = text.find('@');
+  s.spec = text.substr(0, at);
+  if (at != std::string::npos) {
+    try {
+      s.tessellate = std::stoi(text.substr(at + 1));
+    } catch (const std::exception&) {
+      throw UsageError("--scenes: '" + text + "' is not SCENE or SCENE@R (R = tessellation)");
+    }
+  }
+  return s;
+}
+
+/// Per-tile samples of the sequential tracer over `db`.
+std::vector<core::CostSample> tile_samples(const core::Database& db, const core::Grid& grid, int width, int height,
+                                           int repeat) {
+  const core::DirectView view(db, grid);
+  const core::Camera camera(core::render_view(db), width, height);
+  const core::ShadingContext shading = core::make_shading_context(db);
+  constexpr int kTile = 8;
+  const int tx = (width + kTile - 1) / kTile, ty = (height + kTile - 1) / kTile;
+  std::vector<core::CostSample> samples(std::size_t(tx) * ty);
+  std::vector<double> best(samples.size(), 1e30);
+  for (int pass = 0; pass < repeat; ++pass) {
+    core::ShadingScratch scratch;
+    for (int j = 0; j < ty; ++j)
+      for (int i = 0; i < tx; ++i) {
+        const core::CostCounts before = core::cost_counts(scratch.stats.rays, scratch.traversal.stats);
+        const double t0 = nodes::thread_cpu_seconds();
+        for (int y = j * kTile; y < std::min(height, (j + 1) * kTile); ++y)
+          for (int x = i * kTile; x < std::min(width, (i + 1) * kTile); ++x)
+            (void)core::render_pixel(view, shading, camera, x, y, 1, false, scratch);
+        const double dt = nodes::thread_cpu_seconds() - t0;
+        const core::CostCounts after = core::cost_counts(scratch.stats.rays, scratch.traversal.stats);
+        core::CostSample& s = samples[std::size_t(j) * tx + i];
+        for (int k = 0; k < core::kCostFeatureCount; ++k) s.counts[std::size_t(k)] = after[std::size_t(k)] - before[std::size_t(k)];
+        best[std::size_t(j) * tx + i] = std::min(best[std::size_t(j) * tx + i], dt);
+      }
+  }
+  for (std::size_t k = 0; k < samples.size(); ++k) samples[k].seconds = best[k];
+  return samples;
+}
+
+/// Per-node samples of svm runs (cpu clock, network none, all pages cached).
+std::vector<core::CostSample> pager_samples(const core::Database& db, const core::Grid& grid, int width, int height,
+                                            int repeat) {
+  std::vector<core::CostSample> out;
+  for (std::uint32_t n : {1u, 2u}) {
+    svm::SvmParams p;
+    p.render.width = width;
+    p.render.height = height;
+    p.machine.nodes = n;
+    p.machine.node_memory = std::size_t(256) << 20;
+    p.machine.timeout_s = 600;
+    std::vector<core::CostSample> best;
+    for (int r = 0; r < repeat; ++r) {
+      const svm::SvmResult res = svm::render_svm(db, grid, p);
+      for (std::uint32_t i = 0; i < n; ++i) {
+        core::CostSample s;
+        s.seconds = res.run.nodes[i].counters.busy_s;
+        s.counts = core::cost_counts(res.tracing[i].rays, res.tracing[i].traversal);
+        s.counts[std::size_t(core::CostFeature::kPageAccess)] = double(res.pager[i].accesses);
+        s.counts[std::size_t(core::CostFeature::kPageLookup)] = double(res.pager[i].table_lookups);
+        s.counts[std::size_t(core::CostFeature::kPageFault)] = double(res.pager[i].misses);
+        if (r == 0) best.push_back(s);
+        else best[i].seconds = std::min(best[i].seconds, s.seconds);
+      }
+    }
+    out.insert(out.end(), best.begin(), best.end());
+  }
+  return out;
+}
+
+/// sum(model) / sum(measured) over `samples`, and the RMS relative error per sample.
+std::pair<double, double> fit_quality(const core::CostModel& m, std::span<const core::CostSample> samples) {
+  double model = 0, measured = 0, sq = 0;
+  for (const core::CostSample& s : samples) {
+    const double p = m.seconds(s.counts);
+    model += p;
+    measured += s.seconds;
+    if (s.seconds > 0) sq += (p / s.seconds - 1) * (p / s.seconds - 1);
+  }
+  return {measured > 0 ? model / measured : 0.0, samples.empty() ? 0.0 : std::sqrt(sq / double(samples.size()))};
+}
+
+}  // namespace
+
+void register_bench_cost_model_command(CLI::App& app) {
+  CLI::App* bench = app.get_subcommand("bench");
+  auto o = std::make_shared<CostModelOptions>();
+  CLI::App* c = bench->add_subcommand(
+      "cost-model", "Fit the model clock's unit costs (--clock model) on this machine and print them with the fit");
+  c->add_option("--scenes", o->scenes, "Scenes to fit on: SCENE or SCENE@R (tessellated R)")
+      ->delimiter(',')
+      ->capture_default_str();
+  c->add_option("--width", o->width, "Image width")->check(CLI::Range(8, 4096))->capture_default_str();
+  c->add_option("--height", o->height, "Image height")->check(CLI::Range(8, 4096))->capture_default_str();
+  c->add_option("--repeat", o->repeat, "Passes per tile (the least time counts)")
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str();
+  c->add_flag("!--no-pager", o->pager, "Skip the svm pager's costs");
+  c->callback([o] {
+    std::vector<core::CostSample> tiles, pager;
+    std::vector<std::pair<std::string, std::vector<core::CostSample>>> per_scene;
+    for (const std::string& text : o->scenes) {
+      const core::SceneSource src = parse_scene(text);
+      const core::Database db = core::make_database(core::load_scene(src));
+      const core::Grid grid = core::build_grid(db);
+      fmt::print(stderr, "{}: tiles...\n", text);
+      std::vector<core::CostSample> t = tile_samples(db, grid, o->width, o->height, o->repeat);
+      tiles.insert(tiles.end(), t.begin(), t.end());
+      per_scene.emplace_back(text, std::move(t));
+      if (o->pager) {
+        fmt::print(stderr, "{}: svm runs...\n", text);
+        const std::vector<core::CostSample> p = pager_samples(db, grid, o->width, o->height, o->repeat);
+        pager.insert(pager.end(), p.begin(), p.end());
+      }
+    }
+    std::array<bool, core::kCostFeatureCount> tracer{}, paging{};
+    for (int k = 0; k < core::kCostFeatureCount; ++k) {
+      const bool is_pager = k >= int(core::CostFeature::kPageAccess);
+      tracer[std::size_t(k)] = !is_pager;
+      paging[std::size_t(k)] = is_pager;
+    }
+    core::CostModel m = core::fit_cost_model(tiles, tracer, core::CostModel{});
+    if (o->pager) m = core::fit_cost_model(pager, paging, m);
+
+    fmt::print("unit costs (ns), fitted on {} tiles{}:\n", tiles.size(),
+               o->pager ? fmt::format(" and {} svm node runs", pager.size()) : "");
+    for (int k = 0; k < core::kCostFeatureCount; ++k)
+      fmt::print("  {:<14} {:10.3f}\n", core::cost_feature_name(core::CostFeature(k)), 1e9 * m.unit_s[std::size_t(k)]);
+    fmt::print("\n{:<12} {:>12} {:>12} {:>10} {:>14}\n", "scene", "measured_s", "model_s", "model/cpu",
+               "rms_rel_err");
+    for (const auto& [name, samples] : per_scene) {
+      double measured = 0;
+      for (const core::CostSample& s : samples) measured += s.seconds;
+      const auto [ratio, rms] = fit_quality(m, samples);
+      fmt::print("{:<12} {:12.4f} {:12.4f} {:10.3f} {:14.3f}\n", name, measured, ratio * measured, ratio, rms);
+    }
+    if (o->pager) {
+      const auto [ratio, rms] = fit_quality(m, pager);
+      fmt::print("{:<12} {:>12} {:>12} {:10.3f} {:14.3f}\n", "svm runs", "", "", ratio, rms);
+    }
+    fmt::print("\nbuilt in now: {}\n", core::kCostModelSource);
+  });
+}
+
+}  // namespace raynode::apps
