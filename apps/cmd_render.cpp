@@ -61,6 +61,7 @@ struct RenderOptions {
   std::string topology = "hypercube";
   std::string work_item = "3x3";
   double timeout_s = 0;
+  double stall_timeout_s = 60;
   double schedule_window_us = 200;
   std::string clock = "cpu";
   // svm
@@ -122,6 +123,7 @@ nodes::MachineParams machine_params(const RenderOptions& o) {
   m.network = nodes::make_network(o.network, o.network_scale,
                                   m.clock == nodes::ComputeClock::kModel ? &m.cost_model : nullptr);
   m.timeout_s = o.timeout_s;
+  m.stall_timeout_s = o.stall_timeout_s;
   m.schedule_window_s = o.schedule_window_us * 1e-6;
   return m;
 }
@@ -513,6 +515,11 @@ void register_render_command(CLI::App& app) {
                 "or model (operation counts x calibrated unit costs: repeatable, free of the host's thread "
                 "switches; see `raynode bench cost-model`)")
       ->check(CLI::IsMember({"cpu", "model"}))
+      ->capture_default_str();
+  c->add_option("--stall-timeout", o->stall_timeout_s,
+                "Node modes: stop with an error naming what each node waits for when no message was sent for "
+                "this many wall seconds (0 = never)")
+      ->check(CLI::Range(0.0, 1e9))
       ->capture_default_str();
   c->add_option("--timeout", o->timeout_s, "Node modes: stop with an error after this many wall seconds (0 = never)")
       ->check(CLI::NonNegativeNumber);

@@ -114,6 +114,29 @@ NodeReport make_report(NodeContext& ctx, double clock) {
 
 }  // namespace
 
+namespace {
+
+/// What every participant waits for (the watchdog's report): the nodes
+/// that are not finished, at most 64 of them, then the host and the
+/// scheduler.
+std::string describe_waits(MachineState& state) {
+  std::string out;
+  std::size_t shown = 0, finished = 0;
+  for (const auto& node : state.nodes) {
+    if (state.finished[node->id()].load(std::memory_order_acquire)) {
+      ++finished;
+      continue;
+    }
+    if (shown++ < 64) out += node->describe_wait() + "; ";
+  }
+  if (shown > 64) out += fmt::format("... {} more; ", shown - 64);
+  if (finished) out += fmt::format("{} nodes finished; ", finished);
+  out += state.host->describe_wait() + "; " + state.scheduler->describe();
+  return out;
+}
+
+}  // namespace
+
 RunReport Machine::run(const Main& node_main, const Main& host_main, const Main& setup, const Main& teardown) {
   const auto wall0 = std::chrono::steady_clock::now();
   MachineState state(params_);
@@ -169,6 +192,7 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
       state.fail(id, std::current_exception());
     }
     final_clock[slot] = ctx.now();
+    ctx.note_wait(WaitReason::kDone);
     if (id != kHost) {
       state.scheduler->release(id);
       state.finished[id].store(true, std::memory_order_release);
@@ -192,12 +216,31 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
     std::unique_lock<std::mutex> lock(done_mutex);
     const std::uint32_t started = std::uint32_t(threads.size());
     auto all_done = [&] { return running <= (n + 1) - started; };
-    if (params_.timeout_s > 0) {
-      if (!done_cv.wait_for(lock, std::chrono::duration<double>(params_.timeout_s), all_done)) {
+    if (params_.timeout_s > 0 || params_.stall_timeout_s > 0) {
+      using clock = std::chrono::steady_clock;
+      const auto start = clock::now();
+      auto last_change = start;
+      std::uint64_t last_progress = state.progress.load(std::memory_order_relaxed);
+      const double tick = params_.stall_timeout_s > 0 ? std::min(0.25, params_.stall_timeout_s / 4) : 0.25;
+      std::string why;
+      while (!done_cv.wait_for(lock, std::chrono::duration<double>(tick), all_done)) {
+        const auto now = clock::now();
+        const std::uint64_t p = state.progress.load(std::memory_order_relaxed);
+        if (p != last_progress) last_progress = p, last_change = now;
+        const double stalled = std::chrono::duration<double>(now - last_change).count();
+        if (params_.stall_timeout_s > 0 && stalled >= params_.stall_timeout_s) {
+          why = fmt::format("no message was sent for {:.3g} s (watchdog, --stall-timeout)", stalled);
+          break;
+        }
+        if (params_.timeout_s > 0 && std::chrono::duration<double>(now - start).count() >= params_.timeout_s) {
+          why = fmt::format("the run did not finish within {} s (watchdog, --timeout)", params_.timeout_s);
+          break;
+        }
+      }
+      if (!why.empty()) {
         lock.unlock();
         state.fail(kHost, std::make_exception_ptr(std::runtime_error(
-                              fmt::format("the run did not finish within {} s (watchdog); stopped; {}",
-                                          params_.timeout_s, state.scheduler->describe()))));
+                              fmt::format("{}; stopped. {}", why, describe_waits(state)))));
       }
     } else {
       done_cv.wait(lock, all_done);

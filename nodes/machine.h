@@ -13,8 +13,11 @@
 //      time T_p = the largest node clock.
 // An exception in any participant stops the run (the others' blocking calls
 // throw RunAborted) and is rethrown by run() as NodeError naming the node.
-// With timeout_s > 0 a watchdog stops a run that takes longer (wall clock)
-// and throws NodeError for the host: no hang survives it.
+// With timeout_s > 0 a watchdog stops a run that takes longer (wall clock),
+// and with stall_timeout_s > 0 one that sends no message for that long (no
+// progress: every mode sends pixels or contributions as it works); either
+// throws NodeError for the host naming what each node was waiting for
+// (NodeContext::describe_wait): no hang survives it.
 //
 // Speedup and efficiency (the paper's definitions): speedup = T_1 / T_p
 // with T_1 the one-node run's parallel time, efficiency = speedup / p.
@@ -49,6 +52,9 @@ struct MachineParams {
   std::uint32_t host_mailbox_capacity = 4096; ///< slots of the host's mailbox
   std::uint32_t max_payload = 256;            ///< bytes per message payload, at most
   double timeout_s = 0;                       ///< watchdog, wall seconds; 0 = none
+  /// Watchdog: stop the run when no message was sent for this many wall
+  /// seconds, reporting what each node waits for; 0 = off.
+  double stall_timeout_s = 0;
   /// Virtual-time scheduling (scheduler.h): at most `run_permits` nodes
   /// compute at once (0 = the host's hardware threads), the laggards first;
   /// a node more than `schedule_window_s` virtual seconds ahead of a
@@ -111,6 +117,7 @@ class MachineState {
   std::atomic<bool> stop{false};
   std::unique_ptr<std::atomic<bool>[]> finished;  ///< per node: its main returned
   std::unique_ptr<Scheduler> scheduler;
+  std::atomic<std::uint64_t> progress{0};  ///< messages sent so far (the stall watchdog's measure)
 
   NodeContext& context(NodeId id) { return id == kHost ? *host : *nodes[id]; }
   /// Records the first failure and stops everyone.

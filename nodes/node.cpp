@@ -97,22 +97,51 @@ void NodeContext::charge(double seconds) {
   counters_.busy_s += seconds;
 }
 
+void NodeContext::note_wait(WaitReason reason, std::int64_t a, std::int64_t b) {
+  wait_a_.store(a, std::memory_order_relaxed);
+  wait_b_.store(b, std::memory_order_relaxed);
+  clock_seen_.store(clock_, std::memory_order_relaxed);
+  wait_reason_.store(std::uint8_t(reason), std::memory_order_relaxed);
+}
+
+std::string NodeContext::describe_wait() const {
+  const std::int64_t a = wait_a_.load(std::memory_order_relaxed), b = wait_b_.load(std::memory_order_relaxed);
+  std::string what;
+  switch (WaitReason(wait_reason_.load(std::memory_order_relaxed))) {
+    case WaitReason::kNone: what = "computing (or between waits)"; break;
+    case WaitReason::kMail: what = "waiting for mail"; break;
+    case WaitReason::kPermit: what = "waiting for a run permit"; break;
+    case WaitReason::kMailboxRoom: what = fmt::format("waiting for room in {}'s full mailbox", node_name(NodeId(a))); break;
+    case WaitReason::kWorkGrant: what = "waiting for the answer to its work request"; break;
+    case WaitReason::kPage: what = fmt::format("waiting for page {} from {}", a, node_name(NodeId(b))); break;
+    case WaitReason::kDone: what = "finished"; break;
+  }
+  return fmt::format("{}: {} (clock {:.6g} s, {} messages parked)", node_name(id_), what,
+                     clock_seen_.load(std::memory_order_relaxed), backlog_size_.load(std::memory_order_relaxed));
+}
+
 bool NodeContext::try_run() {
   Scheduler& s = *machine_->scheduler;
   // Fast path without reading the CPU clock: no scheduling, or the permit is held.
   if (id_ == kHost || !s.enabled() || s.granted_flag(id_).load(std::memory_order_acquire)) return true;
-  return s.try_run(id_, now());
+  const bool ok = s.try_run(id_, now());
+  want_permit_ = !ok;
+  return ok;
 }
 
 bool NodeContext::try_resume() {
   Scheduler& s = *machine_->scheduler;
   if (id_ == kHost || !s.enabled() || s.granted_flag(id_).load(std::memory_order_acquire)) return true;
-  return s.try_run(id_, now(), true);
+  const bool ok = s.try_run(id_, now(), true);
+  want_permit_ = !ok;
+  return ok;
 }
 
 bool NodeContext::yield_point() {
   if (id_ == kHost || !machine_->scheduler->enabled()) return true;
-  return machine_->scheduler->yield_point(id_, now());
+  const bool ok = machine_->scheduler->yield_point(id_, now());
+  want_permit_ = !ok;
+  return ok;
 }
 
 void NodeContext::release_run() {
@@ -127,8 +156,12 @@ void NodeContext::wait_for_mail(double timeout_s) {
   check_stop();
   if (!backlog_.empty()) return;
   sync_compute();
+  const bool generic = wait_reason_.load(std::memory_order_relaxed) == std::uint8_t(WaitReason::kNone);
+  const bool for_permit = want_permit_ && id_ != kHost && !machine_->scheduler->granted_flag(id_).load(std::memory_order_relaxed);
+  if (generic) note_wait(for_permit ? WaitReason::kPermit : WaitReason::kMail);
   mailbox_->wait(machine_->stop, timeout_s,
                  id_ == kHost ? nullptr : &machine_->scheduler->granted_flag(id_));
+  if (generic) note_wait(WaitReason::kNone);
   end_messaging();
 }
 
@@ -178,6 +211,7 @@ bool NodeContext::try_send(NodeId dest, MessageType type, std::span<const std::s
   h.arrival_time = h.send_time + network().message_time(h.wire_bytes, topology().hops(id_, dest));
   const bool ok = push_to(dest, h, parts);
   if (ok) {
+    machine_->progress.fetch_add(1, std::memory_order_relaxed);
     MessageCounts& c = counters_.sent[std::size_t(type)];
     ++c.messages;
     c.bytes += h.wire_bytes;
@@ -194,12 +228,22 @@ void NodeContext::send(NodeId dest, MessageType type, std::span<const std::span<
   // can block everyone). Parked messages live in our arena.
   MessageHeader h;
   int spins = 0;
+  const bool generic = wait_reason_.load(std::memory_order_relaxed) == std::uint8_t(WaitReason::kNone);
+  if (generic) note_wait(WaitReason::kMailboxRoom, dest);
+  struct Clear {
+    NodeContext* self;
+    bool on;
+    ~Clear() {
+      if (on) self->note_wait(WaitReason::kNone);
+    }
+  } clear{this, generic};
   while (true) {
     ++counters_.full_mailbox_retries;
     while (mailbox_->try_pop(h, receive_buffer_.data())) {
       backlog_.push_back(Parked{h, std::pmr::vector<std::byte>(receive_buffer_.data(),
                                                                receive_buffer_.data() + h.payload_bytes, &arena_)});
       counters_.backlog_peak = std::max<std::uint64_t>(counters_.backlog_peak, backlog_.size());
+      backlog_size_.store(backlog_.size(), std::memory_order_relaxed);
     }
     if (++spins < 64) std::this_thread::yield();
     else std::this_thread::sleep_for(std::chrono::microseconds(50));
@@ -221,6 +265,7 @@ bool NodeContext::poll(Message& out) {
   if (!backlog_.empty()) {
     Parked p = std::move(backlog_.front());
     backlog_.pop_front();
+    backlog_size_.store(backlog_.size(), std::memory_order_relaxed);
     backlog_current_ = std::move(p.payload);
     out = p.counted ? Message{p.header, backlog_current_} : take(p.header, backlog_current_);
     got = true;
@@ -246,6 +291,7 @@ void NodeContext::resume_deferred() {
     backlog_.push_front(std::move(deferred_.back()));
     deferred_.pop_back();
   }
+  backlog_size_.store(backlog_.size(), std::memory_order_relaxed);
 }
 
 void NodeContext::advance_to(double t, WaitKind kind) {

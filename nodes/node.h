@@ -66,6 +66,17 @@ enum class WaitKind {
   kCommunication,  ///< waiting for data needed to go on (e.g. a page)
 };
 
+/// What a node is blocked on, for the watchdog's report (Machine::run).
+enum class WaitReason : std::uint8_t {
+  kNone,         ///< computing (or between waits)
+  kMail,         ///< any message
+  kPermit,       ///< a run permit from the virtual-time scheduler
+  kMailboxRoom,  ///< room in node `a`'s full mailbox
+  kWorkGrant,    ///< the answer to its work request
+  kPage,         ///< page `a` from its home node `b`
+  kDone,         ///< its main function returned
+};
+
 /// Per-type message counters.
 struct MessageCounts {
   std::uint64_t messages = 0;
@@ -132,6 +143,15 @@ class NodeContext {
   using WorkMeter = double (*)(const void* state);
   void set_work_meter(WorkMeter meter, const void* state);
   ComputeClock compute_clock() const;
+
+  // --- What the node waits for (the watchdog's report) -------------------
+  /// Records what the node is about to block on (`a`, `b`: the reason's
+  /// operands, see WaitReason); kNone when the wait is over. Generic waits
+  /// (wait_for_mail, a blocked send) record themselves when nothing more
+  /// specific is set. Owner thread writes, the watchdog reads (relaxed).
+  void note_wait(WaitReason reason, std::int64_t a = -1, std::int64_t b = -1);
+  /// One line: "waiting for page 12 from node 3 (clock 0.0123 s)".
+  std::string describe_wait() const;
 
   // --- Virtual-time scheduling (scheduler.h) ------------------------------
   /// May this node compute now? Takes a run permit if one is free; else the
@@ -231,6 +251,11 @@ class NodeContext {
   std::pmr::deque<Parked> backlog_;
   std::pmr::deque<Parked> deferred_;  ///< set aside by defer(), not seen by poll()
   std::pmr::vector<std::byte> backlog_current_;
+  std::atomic<std::uint8_t> wait_reason_{0};
+  std::atomic<std::int64_t> wait_a_{-1}, wait_b_{-1};
+  std::atomic<double> clock_seen_{0};  ///< clock_ as of the last wait, for the watchdog
+  bool want_permit_ = false;           ///< the last try_run/yield_point was refused
+  std::atomic<std::size_t> backlog_size_{0};  ///< messages parked by a blocked send, for the watchdog
   double clock_ = 0;
   double cpu_mark_ = 0;  ///< CPU seconds (kCpu) or metered seconds (kModel) at the last sample
   bool model_clock_ = false;

@@ -193,6 +193,7 @@ WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_
     // wait for does (a forwarded request stamped later than our grant would
     // otherwise count as idle time we never had).
     bool released = false;
+    ctx.note_wait(WaitReason::kWorkGrant);
     while (true) {
       if (!ctx.poll(m)) {
         if (!released) {
@@ -208,6 +209,7 @@ WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_
       done = farm.handle(m, pool, have_grant, grant);
       if (awaited) break;
     }
+    ctx.note_wait(WaitReason::kNone);
   }
   ctx.release_run();  // our work is over
   ctx.mark_work_done();

@@ -159,6 +159,7 @@ const std::byte* Pager::fault(std::uint32_t page) {
   bool got = false, released = false;
   int spins = 0;
   nodes::Message m;
+  ctx_.note_wait(nodes::WaitReason::kPage, page, home);
   while (!got) {
     if (!ctx_.poll(m)) {
       // The reply usually comes within microseconds (the home node serves
@@ -195,6 +196,7 @@ const std::byte* Pager::fault(std::uint32_t page) {
       serve_or_defer(m);
     }
   }
+  ctx_.note_wait(nodes::WaitReason::kNone);
   ctx_.advance_to(arrival, nodes::WaitKind::kCommunication);
   link(victim).page = page;
   push_front(victim);

@@ -1,6 +1,7 @@
 #include <doctest/doctest.h>
 
 #include <atomic>
+#include <chrono>
 #include <string>
 #include <vector>
 
@@ -197,4 +198,37 @@ TEST_CASE("machine: bad parameters and byte sizes are refused with a message") {
   CHECK_THROWS_AS(parse_bytes("four"), std::invalid_argument);
   CHECK_THROWS_AS(parse_bytes("4TiB"), std::invalid_argument);
   CHECK_THROWS_AS(parse_bytes("0"), std::invalid_argument);
+}
+
+TEST_CASE("machine: the stall watchdog stops a run that sends nothing and says what each node waits for") {
+  MachineParams p;
+  p.nodes = 4;
+  p.stall_timeout_s = 0.3;
+  p.timeout_s = 60;
+  Machine machine(p);
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    machine.run(
+        [](NodeContext& ctx) {
+          if (ctx.id() == 3) return;  // finishes at once
+          if (ctx.id() == 1) ctx.note_wait(WaitReason::kPage, 17, 2);
+          if (ctx.id() == 2) ctx.send(0, MessageType::kTest, std::uint64_t{1});  // progress, then silence
+          ctx.receive(WaitKind::kIdle);  // 1 and 2 wait for mail that never comes
+          if (ctx.id() == 0) ctx.receive(WaitKind::kIdle);
+        },
+        [](NodeContext& host) { host.receive(WaitKind::kIdle); });
+    FAIL("run must throw");
+  } catch (const NodeError& e) {
+    const std::string what = e.what();
+    CAPTURE(what);
+    CHECK(e.node == kHost);
+    CHECK(what.find("no message was sent") != std::string::npos);
+    CHECK(what.find("node 0: waiting for mail") != std::string::npos);
+    CHECK(what.find("node 1: waiting for page 17 from node 2") != std::string::npos);
+    CHECK(what.find("node 2: waiting for mail") != std::string::npos);
+    CHECK(what.find("node 3:") == std::string::npos);  // finished nodes are only counted
+    CHECK(what.find("1 nodes finished") != std::string::npos);
+  }
+  const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  CHECK(waited < 30);  // the stall watchdog, not the 60 s timeout, ended it
 }
