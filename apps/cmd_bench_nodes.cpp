@@ -4,12 +4,14 @@
 //  * bench mailbox: raw Mailbox throughput with P producer threads and one
 //    blocking consumer (messages/s), and the round-trip latency of a
 //    ping-pong between two emulated nodes through NodeContext (futex waits).
-//  * bench nodes SCENE: renders SCENE in replicated or svm mode (--mode) for
-//    each node count and prints wall time, virtual parallel time T_p,
-//    speedup T_1 / T_p and efficiency (the paper's definitions, T_1 = the
-//    one-node run), with svm's miss ratio and pages per pixel; and the
-//    sequential tracer's time on the same image (best of --repeat), the
-//    reference a one-node run is compared with.
+//  * bench nodes SCENE: renders SCENE in replicated, svm or dataflow mode
+//    (--mode) for each node count (apps/node_runs.h, shared with `raynode
+//    sweep`) and prints wall time, virtual parallel time T_p, speedup
+//    T_1 / T_p and efficiency (the paper's definitions, T_1 = the one-node
+//    run), with svm's miss ratio and pages per pixel or dataflow's ray
+//    messages, spill fraction and average load; and the sequential tracer's
+//    time on the same image (best of --repeat), the reference a one-node run
+//    is compared with.
 #include <fmt/core.h>
 
 #include <CLI/CLI.hpp>
@@ -22,22 +24,17 @@
 #include <vector>
 
 #include "apps/commands.h"
+#include "apps/node_runs.h"
 #include "core/database.h"
 #include "core/grid.h"
 #include "core/render.h"
 #include "core/scene_source.h"
 #include "nodes/machine.h"
 #include "nodes/mailbox.h"
-#include "nodes/replicated.h"
-#include "svm/svm.h"
 
 namespace raynode::apps {
 
 namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 /// Messages per second from `producers` threads into one mailbox.
 double mailbox_throughput(std::uint32_t producers, std::uint64_t per_producer, std::uint32_t payload) {
@@ -94,118 +91,89 @@ double round_trip_us(std::uint64_t trips) {
 struct NodesBenchOptions {
   core::SceneSource source;
   std::vector<int> nodes{1, 2, 4, 8, 16, 32, 64};
-  int width = 512, height = 512;
-  std::string node_memory = "16MiB";
-  std::string network = "none";
-  double schedule_window_us = 200;
+  NodeRunOptions run = [] {
+    NodeRunOptions r;  // bench nodes' defaults: the full image, no network cost, room for any copy
+    r.width = r.height = 512;
+    r.node_memory = "16MiB";
+    r.network = "none";
+    return r;
+  }();
   std::string json_path;
   std::string mode = "replicated";
-  std::uint32_t page_size = 1024;
   std::uint32_t cache_pages = 0;
-  int repeat = 1;
 };
-
-/// One node-mode run: T_p and the counters the table prints.
-struct NodesRun {
-  double wall_s = 0, parallel_time_s = 0, work_s = 0;
-  std::uint64_t grants = 0;
-  double miss_ratio = -1, pages_per_pixel = -1;  ///< svm only
-};
-
-NodesRun run_nodes_once(const NodesBenchOptions& o, const core::Database& db, const core::Grid& grid, int n,
-                        const nodes::NetworkModel& network) {
-  nodes::MachineParams mp;
-  mp.nodes = std::uint32_t(n);
-  mp.node_memory = nodes::parse_bytes(o.node_memory);
-  mp.network = network;
-  mp.schedule_window_s = o.schedule_window_us * 1e-6;
-  core::RenderParams rp;
-  rp.width = o.width;
-  rp.height = o.height;
-  NodesRun out;
-  const auto t0 = std::chrono::steady_clock::now();
-  const nodes::RunReport* run = nullptr;
-  const std::vector<nodes::WorkStats>* work = nullptr;
-  nodes::ReplicatedResult rr;
-  svm::SvmResult sr;
-  if (o.mode == "svm") {
-    svm::SvmParams p;
-    p.render = rp;
-    p.machine = mp;
-    p.page_size = o.page_size;
-    p.cache_pages = o.cache_pages;
-    sr = svm::render_svm(db, grid, p);
-    run = &sr.run;
-    work = &sr.work;
-    const svm::PagerStats t = sr.pager_total();
-    out.miss_ratio = t.miss_ratio();
-    out.pages_per_pixel = t.pages_per_pixel();
-  } else {
-    nodes::ReplicatedParams p;
-    p.render = rp;
-    p.machine = mp;
-    rr = nodes::render_replicated(db, grid, p);
-    run = &rr.run;
-    work = &rr.work;
-  }
-  out.wall_s = seconds_since(t0);
-  out.parallel_time_s = run->parallel_time_s;
-  for (const auto& nr : run->nodes) out.work_s += nr.counters.busy_s;
-  for (const auto& w : *work) out.grants += w.grants_given;
-  return out;
-}
 
 void run_bench_nodes(const NodesBenchOptions& o) {
+  NodeRunSpec spec = make_node_run_spec(o.run);
+  spec.cache_pages = o.cache_pages;
   const core::Scene scene = core::load_scene(o.source);
   const core::Database db = core::make_database(scene);
   const core::Grid grid = core::build_grid(db);
-  fmt::print("{} {} {}x{}, network {}, node memory {}, {} hardware threads, best of {}\n", o.mode, o.source.spec,
-             o.width, o.height, o.network, o.node_memory, std::thread::hardware_concurrency(), o.repeat);
+  fmt::print("{} {} {}x{}, network {}, node memory {}, clock {}, {} hardware threads, best of {}\n", o.mode,
+             o.source.spec, o.run.width, o.run.height, o.run.network, o.run.node_memory, o.run.clock,
+             std::thread::hardware_concurrency(), o.run.repeat);
   // The sequential tracer on the same image: what a one-node run is compared with.
   double sequential_s = 0;
   {
-    core::RenderParams rp;
-    rp.width = o.width;
-    rp.height = o.height;
     const core::DirectView view(db, grid);
-    for (int i = 0; i < o.repeat; ++i) {
+    for (int i = 0; i < o.run.repeat; ++i) {
       const auto t0 = std::chrono::steady_clock::now();
-      (void)core::render_image(view, db, rp);
+      (void)core::render_image(view, db, spec.render);
       const double s = seconds_since(t0);
       sequential_s = i == 0 ? s : std::min(sequential_s, s);
     }
   }
   fmt::print("sequential render: {:.4f} s\n", sequential_s);
-  fmt::print("{:>6} {:>9} {:>11} {:>9} {:>10} {:>10} {:>8} {:>10} {:>9}\n", "nodes", "wall_s", "T_p_s", "speedup",
-             "efficiency", "work_s", "grants", "miss_ratio", "pages/px");
+  const bool flow = o.mode == "dataflow";
+  if (flow)
+    fmt::print("{:>6} {:>9} {:>11} {:>9} {:>10} {:>10} {:>10} {:>10} {:>9}\n", "nodes", "wall_s", "T_p_s", "speedup",
+               "efficiency", "work_s", "ray_msgs", "spill", "avg_load");
+  else
+    fmt::print("{:>6} {:>9} {:>11} {:>9} {:>10} {:>10} {:>8} {:>10} {:>9}\n", "nodes", "wall_s", "T_p_s", "speedup",
+               "efficiency", "work_s", "grants", "miss_ratio", "pages/px");
   nlohmann::json rows = nlohmann::json::array();
   double t1 = 0;
-  const nodes::NetworkModel network = nodes::make_network(o.network);
   for (int n : o.nodes) {
-    NodesRun best;
-    for (int i = 0; i < o.repeat; ++i) {
-      const NodesRun r = run_nodes_once(o, db, grid, n, network);
-      if (i == 0 || r.parallel_time_s < best.parallel_time_s) best = r;
+    const NodeRun best = run_best(db, grid, o.mode, spec, std::uint32_t(n));
+    if (!best.fits) {
+      fmt::print("{:>6} skipped: {}\n", n, best.skipped);
+      rows.push_back({{"nodes", n}, {"skipped", best.skipped}});
+      continue;
     }
     const double tp = best.parallel_time_s;
     if (n == 1) t1 = tp;
     const double speedup = t1 > 0 ? t1 / tp : 0;
-    fmt::print("{:>6} {:>9.3f} {:>11.5f} {:>9.2f} {:>10.3f} {:>10.4f} {:>8} {:>10.5f} {:>9.2f}\n", n, best.wall_s, tp,
-               speedup, speedup / double(n), best.work_s, best.grants, best.miss_ratio, best.pages_per_pixel);
-    rows.push_back({{"nodes", n},
-                    {"wall_s", best.wall_s},
-                    {"parallel_time_s", tp},
-                    {"speedup", speedup},
-                    {"efficiency", speedup / double(n)},
-                    {"work_s", best.work_s},
-                    {"grants", best.grants},
-                    {"miss_ratio", best.miss_ratio},
-                    {"pages_per_pixel", best.pages_per_pixel}});
+    if (flow)
+      fmt::print("{:>6} {:>9.3f} {:>11.5f} {:>9.2f} {:>10.3f} {:>10.4f} {:>10} {:>10.5f} {:>9.3f}\n", n, best.wall_s,
+                 tp, speedup, speedup / double(n), best.work_s, best.ray_messages.value_or(0),
+                 best.spill_fraction.value_or(0), best.average_load.value_or(0));
+    else
+      fmt::print("{:>6} {:>9.3f} {:>11.5f} {:>9.2f} {:>10.3f} {:>10.4f} {:>8} {:>10.5f} {:>9.2f}\n", n, best.wall_s,
+                 tp, speedup, speedup / double(n), best.work_s, best.grants.value_or(0), best.miss_ratio.value_or(-1),
+                 best.pages_per_pixel.value_or(-1));
+    nlohmann::json row = {{"nodes", n},       {"wall_s", best.wall_s},         {"parallel_time_s", tp},
+                          {"speedup", speedup}, {"efficiency", speedup / double(n)}, {"work_s", best.work_s},
+                          {"rays", best.rays}};
+    if (flow) {
+      row["ray_messages"] = best.ray_messages.value_or(0);
+      row["spill_fraction"] = best.spill_fraction.value_or(0);
+      row["average_load"] = best.average_load.value_or(0);
+    } else {
+      row["grants"] = best.grants.value_or(0);
+      row["miss_ratio"] = best.miss_ratio.value_or(-1);
+      row["pages_per_pixel"] = best.pages_per_pixel.value_or(-1);
+    }
+    if (best.communication_rate_bytes_per_s) {
+      row["page_requests"] = best.page_requests.value_or(0);
+      row["communication_rate_bytes_per_s"] = *best.communication_rate_bytes_per_s;
+    }
+    rows.push_back(std::move(row));
   }
   if (t1 == 0) fmt::print("(no 1-node run in --nodes: speedup needs T_1)\n");
   if (!o.json_path.empty()) {
     std::ofstream f(o.json_path);
-    f << nlohmann::json{{"scene", o.source.spec}, {"mode", o.mode},        {"network", o.network},
+    f << nlohmann::json{{"scene", o.source.spec},       {"mode", o.mode},   {"network", o.run.network},
+                        {"clock", o.run.clock},         {"width", o.run.width}, {"height", o.run.height},
                         {"sequential_s", sequential_s}, {"rows", rows}}
              .dump(2)
       << "\n";
@@ -236,30 +204,19 @@ void register_bench_nodes_commands(CLI::App& app) {
   });
 
   auto no = std::make_shared<NodesBenchOptions>();
-  CLI::App* c = bench->add_subcommand("nodes", "Node emulator: replicated- or svm-mode render for several node "
-                                               "counts (wall time, virtual T_p, speedup, efficiency)");
+  CLI::App* c = bench->add_subcommand("nodes", "Node emulator: replicated-, svm- or dataflow-mode render for several "
+                                               "node counts (wall time, virtual T_p, speedup, efficiency)");
   add_scene_options(*c, no->source);
   c->add_option("--nodes", no->nodes, "Node counts, comma-separated (include 1 for T_1)")
       ->delimiter(',')
       ->check(CLI::Range(1, 4096))
       ->capture_default_str();
-  c->add_option("--width", no->width, "Image width")->check(CLI::Range(1, 16384))->capture_default_str();
-  c->add_option("--height", no->height, "Image height")->check(CLI::Range(1, 16384))->capture_default_str();
-  c->add_option("--node-memory", no->node_memory, "Memory per node")->capture_default_str();
-  c->add_option("--network", no->network, "none, ipsc2 or cluster")
-      ->check(CLI::IsMember({"none", "ipsc2", "cluster"}))
-      ->capture_default_str();
-  c->add_option("--schedule-window", no->schedule_window_us, "Virtual-time scheduling window, microseconds")
-      ->capture_default_str();
+  add_node_run_options(*c, no->run);
   c->add_option("--json", no->json_path, "Also write the table as JSON to this file");
-  c->add_option("--mode", no->mode, "Node mode: replicated or svm")
-      ->check(CLI::IsMember({"replicated", "svm"}))
+  c->add_option("--mode", no->mode, "Node mode: replicated, svm or dataflow")
+      ->check(CLI::IsMember({"replicated", "svm", "dataflow"}))
       ->capture_default_str();
-  c->add_option("--page-size", no->page_size, "svm: page size, bytes")->capture_default_str();
   c->add_option("--cache", no->cache_pages, "svm: cache pages per node (0 = all free memory)")->capture_default_str();
-  c->add_option("--repeat", no->repeat, "Runs per row; the best (lowest T_p) is shown")
-      ->check(CLI::Range(1, 100))
-      ->capture_default_str();
   c->callback([no] { run_bench_nodes(*no); });
 }
 

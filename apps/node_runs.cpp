@@ -1,0 +1,240 @@
+#include "apps/node_runs.h"
+
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+#include <tuple>
+
+#include "apps/commands.h"
+#include "nodes/replicated.h"
+#include "nodes/topology.h"
+#include "svm/svm.h"
+
+namespace raynode::apps {
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) {
+  c.add_option("--width", o.width, "Image width in pixels")->check(CLI::Range(1, 16384))->capture_default_str();
+  c.add_option("--height", o.height, "Image height in pixels")->check(CLI::Range(1, 16384))->capture_default_str();
+  c.add_option("--node-memory", o.node_memory, "Memory budget per node (B, KiB, MiB, GiB; the iPSC/2 node had 4 MiB)")
+      ->capture_default_str();
+  c.add_option("--network", o.network,
+               "Network cost model for virtual time: none (free), ipsc2 (the paper's iPSC/2 scaled to this "
+               "machine's ray speed, calibrated once per command), cluster (1.5 us, 12.5 GB/s)")
+      ->check(CLI::IsMember({"none", "ipsc2", "cluster"}))
+      ->capture_default_str();
+  c.add_option("--network-scale", o.network_scale,
+               "ipsc2: this machine's seconds per ray (default: measured once at start)")
+      ->check(CLI::PositiveNumber);
+  c.add_option("--topology", o.topology, "Interconnect: hypercube (iPSC/2), ring, torus")
+      ->check(CLI::IsMember({"hypercube", "ring", "torus"}))
+      ->capture_default_str();
+  c.add_option("--work-item", o.work_item, "replicated, svm: pixels per work item, WxH")->capture_default_str();
+  c.add_option("--schedule-window", o.schedule_window_us,
+               "Virtual-time scheduling window in microseconds (negative = off, the OS schedules the node threads)")
+      ->capture_default_str();
+  c.add_option("--clock", o.clock,
+               "What advances a node's clock while it computes: cpu (its thread's CPU time) or model (a cost "
+               "model of the work done: deterministic)")
+      ->check(CLI::IsMember({"cpu", "model"}))
+      ->capture_default_str();
+  c.add_option("--timeout", o.timeout_s, "Stop a run with an error after this many wall seconds (0 = never)")
+      ->check(CLI::NonNegativeNumber);
+  c.add_option("--repeat", o.repeat, "Runs per point; the one with the lowest T_p is kept (best of)")
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str();
+  if (set.page_size)
+    c.add_option("--page-size", o.page_size,
+                 "svm: bytes per page, a power of two from 64 (the paper: 1024)")
+        ->capture_default_str();
+  if (set.dataflow) {
+    c.add_option("--subsample", o.subsample, "dataflow: load estimate traces one pixel per NxN block")
+        ->check(CLI::Range(1, 4096))
+        ->capture_default_str();
+    c.add_option("--partition", o.partition, "dataflow: balanced (median cuts on the estimated load) or equal")
+        ->check(CLI::IsMember({"balanced", "equal"}))
+        ->capture_default_str();
+    c.add_option("--queue-capacity", o.queue_capacity,
+                 "dataflow: slots of each node's mailbox (default: the mode's, 1024)")
+        ->check(CLI::Range(1, 1 << 20));
+  }
+}
+
+std::pair<int, int> parse_work_item(const std::string& text) {
+  int w = 0, h = 0;
+  char x = 0, extra = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d%c", &w, &x, &h, &extra) != 3 || (x != 'x' && x != 'X') || w < 1 || h < 1 ||
+      w > 256 || h > 256)
+    throw UsageError("--work-item must be WxH with 1 <= W, H <= 256 (e.g. 3x3), got '" + text + "'");
+  return {w, h};
+}
+
+NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
+  NodeRunSpec s;
+  s.render.width = o.width;
+  s.render.height = o.height;
+  nodes::MachineParams& m = s.machine;
+  try {
+    m.node_memory = nodes::parse_bytes(o.node_memory);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--node-memory: ") + e.what());
+  }
+  try {
+    m.topology = nodes::parse_topology(o.topology);
+    m.clock = nodes::parse_compute_clock(o.clock);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--topology/--clock: ") + e.what());
+  }
+  m.timeout_s = o.timeout_s;
+  m.schedule_window_s = o.schedule_window_us * 1e-6;
+  try {
+    m.network = nodes::make_network(o.network, o.network_scale,
+                                    m.clock == nodes::ComputeClock::kModel ? &m.cost_model : nullptr);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--network: ") + e.what());
+  }
+  std::tie(s.item_w, s.item_h) = parse_work_item(o.work_item);
+  if (o.page_size < 64 || (o.page_size & (o.page_size - 1)) != 0)
+    throw UsageError(fmt::format("--page-size must be a power of two >= 64, got {}", o.page_size));
+  s.page_size = o.page_size;
+  s.subsample = o.subsample;
+  s.partition = dataflow::parse_partition(o.partition);
+  s.queue_capacity = o.queue_capacity;
+  s.repeat = o.repeat;
+  return s;
+}
+
+namespace {
+
+/// True for the failures that mean "this configuration does not fit a
+/// node's memory": the modes' checks before a run (std::runtime_error
+/// naming the sizes) and an arena refusing an allocation inside a run.
+bool is_fit_error(const std::exception& e) {
+  if (dynamic_cast<const nodes::NodeError*>(&e))
+    return std::string(e.what()).find("out of node memory") != std::string::npos;
+  return dynamic_cast<const std::runtime_error*>(&e) != nullptr;
+}
+
+double busy_sum(const nodes::RunReport& run) {
+  double s = 0;
+  for (const nodes::NodeReport& n : run.nodes) s += n.counters.busy_s;
+  return s;
+}
+
+std::uint64_t grants_sum(const std::vector<nodes::WorkStats>& work) {
+  std::uint64_t g = 0;
+  for (const nodes::WorkStats& w : work) g += w.grants_given;
+  return g;
+}
+
+}  // namespace
+
+NodeRun run_node_mode(const core::Database& db, const core::Grid& grid, const std::string& mode,
+                      const NodeRunSpec& spec, std::uint32_t node_count, std::size_t node_memory) {
+  nodes::MachineParams mp = spec.machine;
+  mp.nodes = node_count;
+  if (node_memory > 0) mp.node_memory = node_memory;
+  NodeRun out;
+  out.node_memory = mp.node_memory;
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    if (mode == "svm") {
+      svm::SvmParams p;
+      p.render = spec.render;
+      p.machine = mp;
+      p.item_w = spec.item_w;
+      p.item_h = spec.item_h;
+      p.page_size = spec.page_size;
+      p.cache_pages = spec.cache_pages;
+      p.cache_fraction = spec.cache_fraction;
+      const svm::SvmResult r = svm::render_svm(db, grid, p);
+      out.wall_s = seconds_since(t0);
+      out.parallel_time_s = r.run.parallel_time_s;
+      out.work_s = busy_sum(r.run);
+      out.rays = r.render.stats.rays.total();
+      out.grants = grants_sum(r.work);
+      const svm::PagerStats t = r.pager_total();
+      out.miss_ratio = t.miss_ratio();
+      out.cache_miss_ratio = t.cache_miss_ratio();
+      out.pages_per_pixel = t.pages_per_pixel();
+      out.evictions = t.evictions;
+      const nodes::NodeCounters c = r.run.total();
+      out.page_requests = c.sent[std::size_t(nodes::MessageType::kPageRequest)].messages;
+      const std::uint64_t page_bytes = c.received[std::size_t(nodes::MessageType::kPageReply)].bytes;
+      out.communication_rate_bytes_per_s =
+          r.run.parallel_time_s > 0 ? double(page_bytes) / r.run.parallel_time_s : 0.0;
+      out.cache_pages = r.pager.empty() ? 0u : r.pager.front().cache_pages;
+      out.pages_total = r.layout.pages;
+      out.database_bytes = r.layout.bytes();
+    } else if (mode == "replicated") {
+      nodes::ReplicatedParams p;
+      p.render = spec.render;
+      p.machine = mp;
+      p.item_w = spec.item_w;
+      p.item_h = spec.item_h;
+      const nodes::ReplicatedResult r = nodes::render_replicated(db, grid, p);
+      out.wall_s = seconds_since(t0);
+      out.parallel_time_s = r.run.parallel_time_s;
+      out.work_s = busy_sum(r.run);
+      out.rays = r.render.stats.rays.total();
+      out.grants = grants_sum(r.work);
+    } else if (mode == "dataflow") {
+      dataflow::DataflowParams p;
+      p.render = spec.render;
+      p.machine = mp;
+      p.machine.mailbox_capacity = spec.queue_capacity;
+      p.subsample = spec.subsample;
+      p.partition = spec.partition;
+      const dataflow::DataflowResult r = dataflow::render_dataflow(db, grid, p);
+      out.wall_s = seconds_since(t0);
+      out.parallel_time_s = r.run.parallel_time_s;
+      out.work_s = busy_sum(r.run);
+      out.rays = r.render.stats.rays.total();
+      out.ray_messages = r.ray_messages();
+      out.spill_fraction = r.spill_fraction();
+      out.average_load = r.average_load();
+    } else {
+      throw UsageError("unknown node mode '" + mode + "' (replicated, svm, dataflow)");
+    }
+  } catch (const UsageError&) {
+    throw;
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(mode + " mode: " + e.what());
+  } catch (const std::exception& e) {
+    if (!is_fit_error(e)) throw;
+    out = NodeRun{};
+    out.fits = false;
+    out.node_memory = mp.node_memory;
+    out.skipped = e.what();
+    out.wall_s = seconds_since(t0);
+  }
+  return out;
+}
+
+NodeRun run_best(const core::Database& db, const core::Grid& grid, const std::string& mode, const NodeRunSpec& spec,
+                 std::uint32_t node_count, std::size_t node_memory) {
+  NodeRun best;
+  for (int i = 0; i < std::max(1, spec.repeat); ++i) {
+    NodeRun r = run_node_mode(db, grid, mode, spec, node_count, node_memory);
+    if (!r.fits) return r;
+    if (i == 0 || r.parallel_time_s < best.parallel_time_s) best = std::move(r);
+  }
+  return best;
+}
+
+std::string format_duration(double s) {
+  if (!(s >= 0) || !std::isfinite(s)) return "?";
+  if (s < 60) return fmt::format("{:.1f} s", s);
+  const long t = std::lround(s);
+  if (t < 3600) return fmt::format("{} min {:02} s", t / 60, t % 60);
+  return fmt::format("{} h {:02} min", t / 3600, (t % 3600) / 60);
+}
+
+}  // namespace raynode::apps

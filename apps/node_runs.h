@@ -1,0 +1,144 @@
+// One render on the emulated machine as the experiment commands measure it:
+// `raynode bench nodes` and `raynode sweep nodes|cache|page-size` share the
+// options (NodeRunOptions, add_node_run_options), their parsing into a
+// NodeRunSpec, and run_node_mode, which renders one frame in replicated, svm
+// or dataflow mode and keeps the figures a table row needs (NodeRun).
+//
+// Data flow: command line -> NodeRunOptions -> make_node_run_spec (parses
+// sizes, calibrates the network once per series so that every run, T_1
+// included, has the same cost model) -> run_best(db, grid, spec, nodes,
+// repeat) -> NodeRun -> table / CSV row. Speedup and efficiency follow the
+// paper: speedup = T_1 / T_p with T_1 the same mode's one-node run,
+// efficiency = speedup / p (nodes/machine.h).
+//
+// A run that cannot start because the database (or a requested cache) does
+// not fit a node's --node-memory is not an error here: run_node_mode reports
+// it as NodeRun::fits = false with the mode's message naming the sizes, so a
+// sweep can mark the point skipped and go on.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/database.h"
+#include "core/grid.h"
+#include "core/render.h"
+#include "dataflow/dataflow.h"
+#include "nodes/machine.h"
+#include "nodes/network.h"
+
+namespace raynode::apps {
+
+/// The machine and mode options as typed on the command line (strings where
+/// the text is parsed later, so errors can name the option).
+struct NodeRunOptions {
+  int width = 256, height = 256;        ///< pixels
+  std::string node_memory = "4MiB";     ///< per node (the iPSC/2's 4 MiB)
+  std::string network = "ipsc2";        ///< none, ipsc2, cluster
+  double network_scale = 0;             ///< ipsc2: this machine's seconds per ray; 0 = calibrate once
+  std::string topology = "hypercube";   ///< hypercube, ring, torus
+  std::string work_item = "3x3";        ///< replicated, svm: pixels per work item
+  double schedule_window_us = 200;      ///< virtual-time scheduling window, microseconds
+  std::string clock = "cpu";            ///< cpu or model (nodes::ComputeClock)
+  double timeout_s = 0;                 ///< per run, wall seconds; 0 = none
+  int repeat = 1;                       ///< runs per point; the lowest T_p is kept
+  // svm
+  std::uint32_t page_size = 1024;       ///< bytes
+  // dataflow
+  int subsample = 8;                    ///< load estimate: one pixel per NxN block
+  std::string partition = "balanced";   ///< balanced or equal
+  std::uint32_t queue_capacity = 0;     ///< node mailbox slots; 0 = the mode's default
+};
+
+/// Which options add_node_run_options adds besides the machine's.
+struct NodeRunOptionSet {
+  bool page_size = true;  ///< --page-size (svm)
+  bool dataflow = true;   ///< --subsample, --partition, --queue-capacity
+};
+
+/// Adds --width, --height, --node-memory, --network, --network-scale,
+/// --topology, --work-item, --schedule-window, --clock, --timeout, --repeat
+/// and (per `set`) the svm and dataflow options to `cmd`, with `o`'s
+/// current values as the defaults shown in --help. `o` must outlive `cmd`.
+void add_node_run_options(CLI::App& cmd, NodeRunOptions& o, NodeRunOptionSet set = {});
+
+/// Everything a run needs besides the node count, parsed and checked.
+struct NodeRunSpec {
+  core::RenderParams render;          ///< width, height (the rest: defaults)
+  nodes::MachineParams machine;       ///< nodes set per run
+  std::int32_t item_w = 3, item_h = 3;
+  std::uint32_t page_size = 1024;     ///< svm
+  std::uint32_t cache_pages = 0;      ///< svm: frames per node; 0 = all free memory
+  double cache_fraction = 0;          ///< svm: of the database's pages, used when > 0
+  int subsample = 8;                  ///< dataflow
+  dataflow::PartitionKind partition = dataflow::PartitionKind::kBalanced;
+  std::uint32_t queue_capacity = 0;   ///< dataflow
+  int repeat = 1;
+};
+
+/// Parses `o` into a spec: byte sizes, topology, work item, clock, and the
+/// network model, calibrated here once (ipsc2 scales to this machine's
+/// seconds per ray: measured CPU time, or the cost model's under --clock
+/// model). Throws UsageError naming the option on a bad value.
+NodeRunSpec make_node_run_spec(const NodeRunOptions& o);
+
+/// "3x3" -> {3, 3}; throws UsageError.
+std::pair<int, int> parse_work_item(const std::string& text);
+
+/// What one node-mode render measured. Mode counters are std::nullopt where
+/// the mode has none (e.g. grants in dataflow, miss ratio outside svm).
+struct NodeRun {
+  bool fits = true;            ///< false: the run did not start, see `skipped`
+  std::string skipped;         ///< why it did not fit (the mode's message naming the sizes)
+  std::size_t node_memory = 0; ///< bytes per node it ran with
+  double wall_s = 0;           ///< real seconds of the render call
+  double parallel_time_s = 0;  ///< T_p, virtual seconds
+  double work_s = 0;           ///< busy virtual seconds summed over the nodes
+  std::uint64_t rays = 0;      ///< rays traced, all kinds
+  std::optional<std::uint64_t> grants;  ///< replicated, svm: work items granted
+  // svm
+  std::optional<double> miss_ratio;        ///< page faults per object access
+  std::optional<double> cache_miss_ratio;  ///< page faults per non-home page lookup (once per pixel)
+  std::optional<double> pages_per_pixel;   ///< distinct pages per pixel (the paper's Table 2)
+  std::optional<double> communication_rate_bytes_per_s;  ///< page bytes received by all nodes / T_p
+  std::optional<std::uint64_t> page_requests;
+  std::optional<std::uint64_t> evictions;
+  std::optional<std::uint32_t> cache_pages;  ///< cache frames of node 0
+  std::optional<std::uint32_t> pages_total;  ///< pages of the shared virtual memory
+  std::optional<std::uint64_t> database_bytes;  ///< shared virtual memory bytes (svm)
+  // dataflow
+  std::optional<std::uint64_t> ray_messages;  ///< between nodes plus spills
+  std::optional<double> spill_fraction;       ///< rays spilled to the host / ray messages
+  std::optional<double> average_load;         ///< mean over nodes of busy / T_p
+};
+
+/// Renders one frame of `db` in `mode` ("replicated", "svm", "dataflow") on
+/// `nodes` nodes as `spec` says (`node_memory`, when non-zero, replaces the
+/// spec's). Returns fits = false when the mode refuses to start because
+/// something does not fit a node, or a node runs out of memory; throws
+/// UsageError for bad parameters, nodes::NodeError for other failures.
+NodeRun run_node_mode(const core::Database& db, const core::Grid& grid, const std::string& mode,
+                      const NodeRunSpec& spec, std::uint32_t nodes, std::size_t node_memory = 0);
+
+/// run_node_mode `spec.repeat` times; the run with the lowest T_p (or the
+/// first that did not fit).
+NodeRun run_best(const core::Database& db, const core::Grid& grid, const std::string& mode, const NodeRunSpec& spec,
+                 std::uint32_t nodes, std::size_t node_memory = 0);
+
+/// Node memory for a one-node run (T_1) of a database that does not fit
+/// --node-memory: the arena is only a budget, so this is accounting, not
+/// memory taken.
+inline constexpr std::size_t kT1FallbackMemory = std::size_t(64) << 30;
+
+/// "1.5 s", "2 min 10 s", "1 h 02 min" for progress lines.
+std::string format_duration(double seconds);
+
+/// Seconds since `t0` on the steady clock.
+double seconds_since(std::chrono::steady_clock::time_point t0);
+
+}  // namespace raynode::apps
