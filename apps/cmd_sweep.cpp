@@ -320,6 +320,23 @@ constexpr int kT1MinRepeat = 3;
 /// Runs T_1 (one node) for `mode`, best of max(kT1MinRepeat, --repeat);
 /// when it does not fit --node-memory, again with kT1FallbackMemory. `note`
 /// gets what happened.
+/// The svm T_1 row of a cache or page-size sweep (one node, all pages
+/// home); returns its index.
+std::size_t add_svm_t1_row(Table& t, const SweepFrame& f, const SweepOptions& o, const NodeRun& t1_run, double t1,
+                           const std::string& note) {
+  const std::size_t row = t.add_row();
+  t.set(row, "role", "T_1");
+  t.set(row, "mode", "svm");
+  t.set(row, "nodes", "1");
+  t.set(row, "cache", "all pages home");
+  fill_run(t, row, t1_run, 1, t1);
+  t.set(row, "cache_percent", "");
+  if (!note.empty()) t.set(row, "note", note);
+  fill_settings(t, row, f, o, t1_run.node_memory);
+  t.set(row, "repeat", fmt::format("{}", std::max(o.run.repeat, kT1MinRepeat)));
+  return row;
+}
+
 NodeRun run_t1(SweepFrame& f, const std::string& mode, NodeRunSpec spec, std::string& note) {
   spec.repeat = std::max(spec.repeat, kT1MinRepeat);
   NodeRun r = run_best(f.db, f.grid, mode, spec, 1);
@@ -457,16 +474,7 @@ void run_sweep_cache(CacheSweepOptions& o) {
   const NodeRun t1_run = run_t1(f, "svm", t1_spec, note);
   const double t1 = t1_run.fits ? t1_run.parallel_time_s : 0;
   {
-    const std::size_t row = t.add_row();
-    t.set(row, "role", "T_1");
-    t.set(row, "mode", "svm");
-    t.set(row, "nodes", "1");
-    t.set(row, "cache", "all pages home");
-    fill_run(t, row, t1_run, 1, t1);
-    t.set(row, "cache_percent", "");
-    if (!note.empty()) t.set(row, "note", note);
-    fill_settings(t, row, f, o, t1_run.node_memory);
-    t.set(row, "repeat", fmt::format("{}", std::max(o.run.repeat, kT1MinRepeat)));
+    add_svm_t1_row(t, f, o, t1_run, t1, note);
     f.progress("T_1: svm 1 node, all pages home", t1_run, t1, 1);
   }
   std::string first_skip;
@@ -529,16 +537,7 @@ void run_sweep_page_size(PageSizeSweepOptions& o) {
     std::string note;
     const NodeRun t1_run = run_t1(f, "svm", spec, note);
     const double t1 = t1_run.fits ? t1_run.parallel_time_s : 0;
-    std::size_t row = t.add_row();
-    t.set(row, "role", "T_1");
-    t.set(row, "mode", "svm");
-    t.set(row, "nodes", "1");
-    t.set(row, "cache", "all pages home");
-    fill_run(t, row, t1_run, 1, t1);
-    t.set(row, "cache_percent", "");
-    if (!note.empty()) t.set(row, "note", note);
-    fill_settings(t, row, f, o, t1_run.node_memory);
-    t.set(row, "repeat", fmt::format("{}", std::max(o.run.repeat, kT1MinRepeat)));
+    std::size_t row = add_svm_t1_row(t, f, o, t1_run, t1, note);
     t.set(row, "page_size", fmt::format("{}", ps));
     f.progress(fmt::format("T_1: svm 1 node, page size {} B", ps), t1_run, t1, 1);
 
