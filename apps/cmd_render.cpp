@@ -19,6 +19,9 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <cerrno>
+#include <cstring>
+#include <unistd.h>
 
 #include "apps/commands.h"
 #include "apps/progress.h"
@@ -167,6 +170,78 @@ std::string aov_path(const std::string& output, const std::string& aov) {
   return p.string() + "." + aov + ".exr";
 }
 
+/// Stops before any work when `path` cannot be written: its directory is
+/// missing, or a directory stands at the path. `what` names the file
+/// ("image", "--stats file", "AOV"). Throws std::runtime_error (exit 1).
+void check_writable(const std::string& path, const char* what) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path dir = fs::path(path).parent_path();
+  if (!dir.empty() && !fs::is_directory(dir, ec))
+    throw std::runtime_error(
+        fmt::format("cannot write {} '{}': directory '{}' does not exist", what, path, dir.string()));
+  if (fs::is_directory(path, ec))
+    throw std::runtime_error(fmt::format("cannot write {} '{}': a directory is in the way", what, path));
+}
+
+/// The files of one render (image, AOVs, maps, --stats), written under
+/// temporary names beside their final paths and renamed into place only when
+/// every one of them was written: a failed run leaves none of them behind,
+/// nor a temporary. Owner thread only.
+class OutputFiles {
+ public:
+  OutputFiles() = default;
+  OutputFiles(const OutputFiles&) = delete;
+  OutputFiles& operator=(const OutputFiles&) = delete;
+  ~OutputFiles() {
+    std::error_code ec;
+    for (const File& f : pending_) std::filesystem::remove(f.tmp, ec);
+  }
+
+  /// Writes `image` (imageio::write_image: format by the extension of `path`).
+  void image(const std::string& path, const core::Image& image) { imageio::write_image(add(path), image); }
+
+  /// Writes `text` as is. Throws std::runtime_error naming `path`.
+  void text(const std::string& path, const std::string& text) {
+    std::ofstream f(add(path), std::ios::binary);
+    if (!f) throw std::runtime_error(fmt::format("cannot write '{}': {}", path, std::strerror(errno)));
+    f << text;
+    f.close();
+    if (!f) throw std::runtime_error(fmt::format("error writing '{}'", path));
+  }
+
+  /// Renames every file into place. On a failure, removes the ones already
+  /// renamed and throws std::runtime_error naming the path.
+  void commit() {
+    std::vector<std::string> done;
+    for (const File& f : pending_) {
+      std::error_code ec;
+      std::filesystem::rename(f.tmp, f.path, ec);
+      if (ec) {
+        std::error_code ignored;
+        for (const std::string& d : done) std::filesystem::remove(d, ignored);
+        throw std::runtime_error(fmt::format("cannot write '{}': {}", f.path, ec.message()));
+      }
+      done.push_back(f.path);
+    }
+    pending_.clear();
+  }
+
+ private:
+  struct File {
+    std::string path, tmp;
+  };
+  /// out/o.png -> out/.o.part<pid>.png (same directory and extension).
+  const std::string& add(const std::string& path) {
+    const std::filesystem::path p(path);
+    const std::filesystem::path tmp =
+        p.parent_path() / ("." + p.stem().string() + ".part" + std::to_string(::getpid()) + p.extension().string());
+    pending_.push_back({path, tmp.string()});
+    return pending_.back().tmp;
+  }
+  std::vector<File> pending_;
+};
+
 /// The host's acceleration structure: exactly one of the two is built.
 struct Accelerator {
   std::optional<core::Grid> grid;             ///< --accel grid
@@ -283,9 +358,23 @@ void run_render(const RenderOptions& o) {
     throw UsageError("output '" + o.output + "' has no extension to choose the image format");
   if (!imageio::can_write_format(o.output))
     throw UsageError("no image writer for the extension of '" + o.output + "' (try .png, .exr, .tif, .ppm)");
+  check_writable(o.output, "image");
+  if (!o.stats_path.empty()) check_writable(o.stats_path, "--stats file");
+  for (const std::string& a : o.aovs) {
+    check_writable(aov_path(o.output, a), "AOV");
+    if (a == "node" || a == "pages")  // NAME.node.png, NAME.pages.png beside the EXR
+      check_writable(std::filesystem::path(aov_path(o.output, a)).replace_extension(".png").string(), "AOV map");
+  }
 
   const core::Scene scene = core::load_scene(o.source);
   const core::Database db = core::make_database(scene);
+  if (db.primitives.empty()) {
+    const std::size_t dropped = scene.dropped_degenerate + db.dropped_degenerate_triangles;
+    throw std::runtime_error(fmt::format("{}: the scene has no primitives to render{}", o.source.spec,
+                                         dropped == 0 ? std::string()
+                                                      : fmt::format(" ({} degenerate polygon{} dropped)", dropped,
+                                                                    dropped == 1 ? "" : "s")));
+  }
   const Accelerator accel = build_accelerator(o.accel, db);
 
   const core::View cam_view = core::render_view(db);
@@ -303,12 +392,13 @@ void run_render(const RenderOptions& o) {
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   progress.finish();
 
-  imageio::write_image(o.output, result.color);
+  OutputFiles files;  // renamed into place together at the end
+  files.image(o.output, result.color);
   std::vector<std::pair<std::string, std::string>> aov_files;  // (aov, path)
   auto write_aov = [&](const char* name, const core::Image& image) {
     if (image.empty()) return;
     aov_files.emplace_back(name, aov_path(o.output, name));
-    imageio::write_image(aov_files.back().second, image);
+    files.image(aov_files.back().second, image);
   };
   write_aov("depth", result.depth);
   write_aov("normal", result.normal);
@@ -322,7 +412,7 @@ void run_render(const RenderOptions& o) {
     std::filesystem::path p(aov_path(o.output, name));
     p.replace_extension(".png");
     aov_files.emplace_back(std::string(name) + "_map", p.string());
-    imageio::write_image(p.string(), picture);
+    files.image(p.string(), picture);
   };
   if (!extras.node.empty()) write_map("node", imageio::label_map(extras.node));
   if (!extras.pages.empty()) write_map("pages", imageio::heat_map(extras.pages));
@@ -393,11 +483,9 @@ void run_render(const RenderOptions& o) {
         j["per_node"][i]["svm"] = extras.svm["per_node"][i];
     }
     if (!extras.dataflow.is_null()) j["dataflow"] = extras.dataflow;
-    std::ofstream f(o.stats_path);
-    if (!f) throw std::runtime_error("cannot write " + o.stats_path);
-    f << j.dump(2) << "\n";
-    if (!f) throw std::runtime_error("error writing " + o.stats_path);
+    files.text(o.stats_path, j.dump(2) + "\n");
   }
+  files.commit();
   if (!o.quiet) {
     fmt::print("{}: {}x{} spp {}x{} mode {} accel {} in {:.3f} s wall ({:.3f} s cpu)\n", o.output,
                result.color.width, result.color.height, params.spp, params.spp, o.mode, o.accel, wall_s, cpu_s);

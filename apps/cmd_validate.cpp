@@ -3,6 +3,7 @@
 #include <fmt/core.h>
 
 #include <nlohmann/json.hpp>
+#include <stdexcept>
 
 #include "apps/commands.h"
 #include "core/database.h"
@@ -38,6 +39,8 @@ nlohmann::json counts_json(const core::ValidateCounts& c) {
 void run_validate(const ValidateOptions& o) {
   const core::Scene scene = core::load_scene(o.source);
   const core::Database db = core::make_database(scene);
+  if (db.primitives.empty())  // nothing to compare: say so instead of "zero mismatches"
+    throw std::runtime_error(fmt::format("{}: the scene has no primitives to validate", o.source.spec));
   core::GridParams gp;
   gp.density = o.density;
   const core::Grid grid = core::build_grid(db, gp);

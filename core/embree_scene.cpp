@@ -10,6 +10,8 @@
 #include <stdexcept>
 #include <string>
 
+#include <fmt/format.h>
+
 #include "core/intersect.h"
 
 namespace raynode::core {
@@ -95,6 +97,24 @@ void cone_occluded(const RTCOccludedFunctionNArguments* args) {
   throw std::runtime_error(std::string("Embree: ") + what + " failed (error " + std::to_string(int(e)) + ")");
 }
 
+/// Embree 3 traces a ray only when every component of its origin and
+/// direction is within +-FLT_LARGE (1.844e18, RayK::valid() in Embree's
+/// kernels/common/ray.h) and its interval is not NaN; otherwise its debug
+/// build aborts on an assertion and its release build may return garbage.
+/// Throws std::domain_error naming the ray (a scene whose coordinates reach
+/// that far cannot be checked against Embree).
+void check_traceable(const Ray& ray) {
+  constexpr float kEmbreeLarge = 1.844e18f;
+  auto inside = [](const Vec3& v) {
+    return std::fabs(v.x) <= kEmbreeLarge && std::fabs(v.y) <= kEmbreeLarge && std::fabs(v.z) <= kEmbreeLarge;
+  };
+  if (inside(ray.origin) && inside(ray.direction) && !std::isnan(ray.tmin) && !std::isnan(ray.tmax)) return;
+  throw std::domain_error(fmt::format("Embree cannot trace a ray from ({}, {}, {}) in direction ({}, {}, {}): "
+                                      "coordinates beyond +-{:g} (Embree's FLT_LARGE) or a NaN interval",
+                                      ray.origin.x, ray.origin.y, ray.origin.z, ray.direction.x, ray.direction.y,
+                                      ray.direction.z, kEmbreeLarge));
+}
+
 }  // namespace
 
 struct EmbreeScene::Impl {
@@ -174,6 +194,7 @@ EmbreeScene::~EmbreeScene() {
 }
 
 bool EmbreeScene::intersect_closest(const Ray& ray, Hit& hit) const {
+  check_traceable(ray);
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
   RTCRayHit rh{};
@@ -199,6 +220,7 @@ bool EmbreeScene::intersect_closest(const Ray& ray, Hit& hit) const {
 }
 
 bool EmbreeScene::intersect_any(const Ray& ray) const {
+  check_traceable(ray);
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
   RTCRay r{};

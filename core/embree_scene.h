@@ -30,7 +30,9 @@ class EmbreeScene {
   EmbreeScene& operator=(const EmbreeScene&) = delete;
 
   /// Nearest hit in (ray.tmin, ray.tmax); hit.primitive is the database id.
-  /// Barycentrics are filled for triangles.
+  /// Barycentrics are filled for triangles. Both queries throw
+  /// std::domain_error for a ray Embree cannot trace (a coordinate of its
+  /// origin or direction beyond +-1.844e18, or a NaN interval).
   bool intersect_closest(const Ray& ray, Hit& hit) const;
   /// Any hit in (ray.tmin, ray.tmax).
   bool intersect_any(const Ray& ray) const;

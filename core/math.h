@@ -45,6 +45,10 @@ constexpr Vec3 cross(const Vec3& a, const Vec3& b) {
   return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
 inline float length(const Vec3& a) { return std::sqrt(dot(a, a)); }
+/// |a| in double precision: finite for every finite a (|a|^2 overflows float beyond ~1.8e19).
+inline double length_double(const Vec3& a) {
+  return std::sqrt(double(a.x) * a.x + double(a.y) * a.y + double(a.z) * a.z);
+}
 /// Unit vector along a; a must be non-zero (a zero vector gives NaNs).
 inline Vec3 normalize(const Vec3& a) { return a * (1.0f / length(a)); }
 constexpr Vec3 min(const Vec3& a, const Vec3& b) {

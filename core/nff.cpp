@@ -47,6 +47,9 @@ namespace {
 
 /// Polygon/patch vertex counts above this are reported, not allocated.
 constexpr long long kMaxPolygonVertices = 10'000'000;
+/// Largest view resolution per side, as the CLI's --width/--height allow
+/// (a 100000 x 100000 view would ask for 120 GB of pixels).
+constexpr long long kMaxResolution = 16384;
 
 // ---------------------------------------------------------------------------
 // Lexer
@@ -86,11 +89,18 @@ NumberStatus token_to_float(std::string_view tok, float& out) {
   return NumberStatus::kOk;
 }
 
-/// Shortens a token for quoting in a message.
+/// Shortens a token for quoting in a message; bytes that are not printable
+/// ASCII (binary garbage, control characters) are shown as \xNN.
 std::string quote(std::string_view tok) {
   constexpr std::size_t kMax = 40;
-  if (tok.size() <= kMax) return fmt::format("'{}'", tok);
-  return fmt::format("'{}...'", tok.substr(0, kMax));
+  std::string out = "'";
+  for (std::size_t i = 0; i < tok.size() && i < kMax; ++i) {
+    const auto c = static_cast<unsigned char>(tok[i]);
+    if (c >= 0x20 && c < 0x7f) out += static_cast<char>(c);
+    else out += fmt::format("\\x{:02x}", c);
+  }
+  out += tok.size() > kMax ? "...'" : "'";
+  return out;
 }
 
 /// Token stream over an in-memory NFF text. Owner thread only.
@@ -363,6 +373,7 @@ class Parser {
                                                                  "angle", "hither", "resolution"};
     View& v = scene_.view;
     bool seen[6] = {};
+    const char* label_at[6] = {};  // where each label stands, for the checks below
     for (int done = 0; done < 6; ++done) {
       int missing = 0;
       while (seen[missing]) ++missing;
@@ -382,6 +393,7 @@ class Parser {
         lex_.fail_at(at, fmt::format("'{}' appears twice in the view block", label));
       }
       seen[which] = true;
+      label_at[which] = at;
       switch (which) {
         case 0: v.from = vec3("view 'from'"); break;
         case 1: v.at = vec3("view 'at'"); break;
@@ -394,13 +406,47 @@ class Parser {
           break;
       }
     }
+    check_view(v, label_at);
     scene_.has_view = true;
+  }
+
+  /// A view the camera can use (the same conditions as core::Camera, so a
+  /// scene the reader accepts always renders): 'at' away from 'from', 'up'
+  /// not parallel to the viewing direction, angle in (0, 180) degrees.
+  /// Errors stand at the label of the offending field.
+  void check_view(const View& v, const char* const label_at[6]) {
+    auto text = [](const Vec3& p) { return fmt::format("({}, {}, {})", p.x, p.y, p.z); };
+    const Vec3 dir = v.at - v.from;
+    if (!is_finite(dir)) {
+      lex_.fail_at(label_at[1], fmt::format("view 'at' {} is too far from 'from' {}: the viewing direction "
+                                            "overflows float", text(v.at), text(v.from)));
+    }
+    if (!(dot(dir, dir) > 0.0f)) {
+      lex_.fail_at(label_at[1], v.at == v.from
+                                    ? fmt::format("view 'at' {} is the same point as 'from'", text(v.at))
+                                    : fmt::format("view 'at' {} is too close to 'from' {} to give a viewing "
+                                                  "direction", text(v.at), text(v.from)));
+    }
+    if (!(dot(v.up, v.up) > 0.0f)) {
+      lex_.fail_at(label_at[2], fmt::format("view 'up' {} is parallel to the viewing direction {} (it has no "
+                                            "length)", text(v.up), text(dir)));
+    }
+    if (!(length(cross(normalize(dir), v.up)) > 1e-6f * length(v.up))) {
+      lex_.fail_at(label_at[2], fmt::format("view 'up' {} is parallel to the viewing direction {}{}", text(v.up),
+                                            text(dir), std::isfinite(dot(v.up, v.up)) ? "" : " (or too long)"));
+    }
+    if (!(v.angle > 0.0f && v.angle < 180.0f)) {
+      lex_.fail_at(label_at[3], fmt::format("view 'angle' {} must be in (0, 180) degrees", v.angle));
+    }
   }
 
   int resolution(const char* what) {
     const auto [n, at] = integer(what);
-    if (n <= 0 || n > std::numeric_limits<int>::max()) {
+    if (n <= 0) {
       lex_.fail_at(at, fmt::format("{} must be a positive number of pixels, found {}", what, n));
+    }
+    if (n > kMaxResolution) {
+      lex_.fail_at(at, fmt::format("{} {} is above the {} pixels supported", what, n, kMaxResolution));
     }
     return static_cast<int>(n);
   }

@@ -37,7 +37,9 @@ class ParseError : public std::runtime_error {
 /// content, so `.nff.gz` works whatever its name). Zero-area polygons are
 /// dropped and counted in Scene::dropped_degenerate.
 /// Throws ParseError on malformed input (unknown keyword, missing or
-/// non-finite number, fewer than 3 vertices, truncated file) and
+/// non-finite number, fewer than 3 vertices, truncated file, a view the
+/// camera cannot use: 'at' == 'from', 'up' parallel to the viewing
+/// direction, angle outside (0, 180), resolution outside 1..16384) and
 /// std::runtime_error ("cannot open ...") when the file cannot be read.
 Scene read_nff(const std::string& path);
 

@@ -1,5 +1,8 @@
 #include "core/render.h"
 
+#include <fmt/format.h>
+
+#include <cmath>
 #include <stdexcept>
 
 namespace raynode::core {
@@ -22,9 +25,15 @@ View render_view(const Database& db) {
   if (db.has_view) return db.view;
   View view = db.view;
   view.at = db.bounds.empty() ? Vec3{0, 0, 0} : db.bounds.center();
-  const float size = db.bounds.empty() ? 1.0f : length(db.bounds.extent());
+  float size = db.bounds.empty() ? 1.0f : length(db.bounds.extent());
+  if (!std::isfinite(size)) size = float(length_double(db.bounds.extent()));  // |extent|^2 overflows float
   view.from = view.at + Vec3{0.3f, -0.4f, 0.866f} * (1.5f * (size > 0.0f ? size : 1.0f));
   view.up = {0, 0, 1};
+  if (!is_finite(view.from))  // extent beyond float range: no camera position can be computed
+    throw std::runtime_error(fmt::format("the scene has no view and reaches too far for a default camera (bounds "
+                                         "({}, {}, {}) to ({}, {}, {})); give it a 'v' block",
+                                         db.bounds.lower.x, db.bounds.lower.y, db.bounds.lower.z, db.bounds.upper.x,
+                                         db.bounds.upper.y, db.bounds.upper.z));
   return view;
 }
 

@@ -86,6 +86,8 @@ struct PixelResult {
 
 /// The view used for rendering `db`: its file view, or (no view block) one
 /// looking at the centre of the bounds from a fixed oblique direction.
+/// Throws std::runtime_error when the bounds reach so far that the default
+/// camera position overflows float.
 View render_view(const Database& db);
 
 /// Colour of pixel (x, y), 0 <= x < width, 0 <= y < height of `camera`, and

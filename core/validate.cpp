@@ -1,7 +1,10 @@
 #include "core/validate.h"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <random>
+#include <stdexcept>
 
 #include "core/camera.h"
 #include "core/direct_view.h"
@@ -242,11 +245,17 @@ Vec3 random_point_on(const Primitive& p, std::mt19937_64& rng) {
 View fallback_view(const Database& db) {
   View v;
   const Vec3 c = db.bounds.empty() ? Vec3{} : db.bounds.center();
-  const float r = db.bounds.empty() ? 1.0f : 0.5f * length(db.bounds.extent());
+  float r = db.bounds.empty() ? 1.0f : 0.5f * length(db.bounds.extent());
+  if (!std::isfinite(r)) r = float(0.5 * length_double(db.bounds.extent()));  // |extent|^2 overflows float
   v.at = c;
   v.from = c + Vec3{0.3f, -0.4f, 0.866f} * (3.0f * r);
   v.up = {0, 0, 1};
   v.angle = 45.0f;
+  if (!is_finite(v.from))  // extent beyond float range: no camera position can be computed
+    throw std::runtime_error(fmt::format("the scene has no view and reaches too far for a default camera (bounds "
+                                         "({}, {}, {}) to ({}, {}, {})); give it a 'v' block",
+                                         db.bounds.lower.x, db.bounds.lower.y, db.bounds.lower.z, db.bounds.upper.x,
+                                         db.bounds.upper.y, db.bounds.upper.z));
   return v;
 }
 

@@ -1,0 +1,114 @@
+// Bad input at the core's boundary (issue 8): what the NFF reader, the
+// default camera and the Embree oracle do with inputs that used to crash,
+// hang, allocate without bound or fail with a message naming neither the
+// place nor the numbers. Every case here was a real failure first; the fuzz
+// target (fuzz/nff_fuzzer.cpp) adds its crashing inputs to this file.
+#include <doctest/doctest.h>
+
+#include <stdexcept>
+#include <string>
+
+#include "core/database.h"
+#include "core/embree_scene.h"
+#include "core/grid.h"
+#include "core/nff.h"
+#include "core/render.h"
+
+using namespace raynode::core;
+
+namespace {
+
+/// Parses `text`; returns the ParseError's "line:col: message" ("" if it parsed).
+std::string error_of(const std::string& text) {
+  try {
+    parse_nff(text, "bad.nff");
+  } catch (const ParseError& e) {
+    return std::to_string(e.line()) + ":" + std::to_string(e.column()) + ": " + e.message();
+  }
+  return "";
+}
+
+std::string view(const char* from, const char* at, const char* up, const char* angle = "45",
+                 const char* resolution = "8 8") {
+  return std::string("v\nfrom ") + from + "\nat " + at + "\nup " + up + "\nangle " + angle + "\nhither 0\nresolution " +
+         resolution + "\ns 0 0 0 1\n";
+}
+
+}  // namespace
+
+TEST_CASE("bad input: a view the camera cannot use is a parse error at its label, with the numbers") {
+  // Before: read fine, then the renderer stopped with "view 'from' and 'at'
+  // are the same point" (no file, no line, exit status 2 as for a bad flag).
+  CHECK(error_of(view("1 2 3", "1 2 3", "0 0 1")) == "3:1: view 'at' (1, 2, 3) is the same point as 'from'");
+  CHECK(error_of(view("0 0 5", "0 0 0", "0 0 2")) ==
+        "4:1: view 'up' (0, 0, 2) is parallel to the viewing direction (0, 0, -5)");
+  CHECK(error_of(view("0 0 5", "0 0 0", "0 0 0")).rfind("4:1: view 'up' (0, 0, 0) is parallel", 0) == 0);
+  CHECK(error_of(view("0 0 5", "0 0 0", "0 1 0", "0")) == "5:1: view 'angle' 0 must be in (0, 180) degrees");
+  CHECK(error_of(view("0 0 5", "0 0 0", "0 1 0", "180")) == "5:1: view 'angle' 180 must be in (0, 180) degrees");
+  CHECK(error_of(view("0 0 5", "0 0 0", "0 1 0", "-30")) == "5:1: view 'angle' -30 must be in (0, 180) degrees");
+  // 'from' and 'at' so far apart that their difference overflows float.
+  CHECK(error_of(view("-3e38 0 0", "3e38 0 0", "0 0 1")).rfind("3:1: view 'at' (3e+38, 0, 0) is too far from", 0) == 0);
+  // The checks hold whatever order the labels come in.
+  CHECK(error_of("v\nresolution 8 8\nup 0 1 0\nat 1 1 1\nangle 45\nhither 0\nfrom 1 1 1\n") ==
+        "4:1: view 'at' (1, 1, 1) is the same point as 'from'");
+  // And a good view still parses, and its camera builds.
+  const Scene s = parse_nff(view("0 0 5", "0 0 0", "0 1 0"));
+  CHECK(s.has_view);
+  CHECK_NOTHROW(Camera(s.view, 8, 8));
+}
+
+TEST_CASE("bad input: a view resolution above 16384 is refused at the number instead of allocating it") {
+  // Before: `resolution 100000 100000` read fine and `render` died of std::bad_alloc (120 GB of pixels).
+  CHECK(error_of(view("0 0 5", "0 0 0", "0 1 0", "45", "100000 100000")) ==
+        "7:12: resolution width 100000 is above the 16384 pixels supported");
+  CHECK(error_of(view("0 0 5", "0 0 0", "0 1 0", "45", "16384 16385")) ==
+        "7:18: resolution height 16385 is above the 16384 pixels supported");
+  CHECK(error_of(view("0 0 5", "0 0 0", "0 1 0", "45", "16384 16384")) == "");
+}
+
+TEST_CASE("bad input: binary garbage is quoted as \\xNN in the message, never as raw bytes") {
+  const std::string garbage = std::string("\x01\xff\xfe", 3) + " 1 2\n";
+  CHECK(error_of(garbage) == "1:1: unknown keyword '\\x01\\xff\\xfe'");
+  const std::string tab_in_token = std::string("p\x1b[2J 3\n");
+  CHECK(error_of(tab_in_token) == "1:1: unknown keyword 'p\\x1b[2J'");
+}
+
+TEST_CASE("bad input: huge vertex counts are refused or cost only the vertices present") {
+  CHECK(error_of("p 1000000000\n0 0 0\n") == "1:3: polygon has 1000000000 vertices; at most 10000000 are supported");
+  CHECK(error_of("p 9000000\n0 0 0\n1 0 0\n") == "4:1: file ends inside a 'p' entity (expected 8999998 more vertices)");
+  CHECK(error_of("pp 99999999999999999999\n") == "1:4: patch vertex count '99999999999999999999' is out of range");
+  for (const char* n : {"0", "1", "2", "-3"})
+    CHECK(error_of(std::string("p ") + n + "\n0 0 0\n1 0 0\n0 1 0\n") ==
+          std::string("1:3: polygon has ") + n + " vertices; at least 3 are needed");
+}
+
+TEST_CASE("bad input: a scene without a view whose bounds overflow float gets a message, not a NaN camera") {
+  // Before: from = at + offset * inf gave a NaN camera and the misleading
+  // "view 'up' is parallel to the viewing direction" (exit status 2).
+  const Database db = make_database(parse_nff("s 3e38 0 0 1\ns -3e38 0 0 1\n"));
+  try {
+    render_view(db);
+    FAIL("render_view must throw");
+  } catch (const std::runtime_error& e) {
+    CHECK(std::string(e.what()).find("reaches too far for a default camera") != std::string::npos);
+  }
+  // Large but representable bounds still get a camera.
+  const Database ok = make_database(parse_nff("s 1e30 0 0 1\ns -1e30 0 0 1\n"));
+  CHECK(is_finite(render_view(ok).from));
+}
+
+TEST_CASE("bad input: Embree refuses rays beyond its range with a message instead of aborting") {
+  // Before: `raynode validate` on a scene reaching 1e38 died of an assertion
+  // inside Embree (RayK::valid(): |origin|, |direction| <= 1.844e18).
+  const Database db = make_database(parse_nff("s 0 0 0 1\n"));
+  const EmbreeScene embree(db);
+  Hit hit;
+  CHECK(embree.intersect_closest(Ray{{0, 0, -5}, {0, 0, 1}, 0.0f, kInfinity}, hit));
+  CHECK(hit.t == doctest::Approx(4.0f));
+  const Ray far{{1e38f, 0, 0}, {-1, 0, 0}, 0.0f, kInfinity};
+  CHECK_THROWS_WITH_AS(embree.intersect_closest(far, hit), doctest::Contains("Embree cannot trace a ray from (1e+38"),
+                       std::domain_error);
+  CHECK_THROWS_AS(embree.intersect_any(far), std::domain_error);
+  const Ray nan_interval{{0, 0, -5}, {0, 0, 1}, 0.0f, std::numeric_limits<float>::quiet_NaN()};
+  CHECK_THROWS_AS(embree.intersect_any(nan_interval), std::domain_error);
+}
