@@ -24,6 +24,7 @@
 #include <unistd.h>
 
 #include "apps/commands.h"
+#include "apps/node_runs.h"
 #include "apps/progress.h"
 #include "core/database.h"
 #include "core/direct_view.h"
@@ -94,16 +95,6 @@ void parse_cache(const std::string& text, svm::SvmParams& params) {
       throw UsageError("--cache must be at least 1 page (a whole number), got '" + text + "'");
     params.cache_pages = std::uint32_t(v);
   }
-}
-
-/// "3x3" -> {3, 3}; throws UsageError.
-std::pair<int, int> parse_work_item(const std::string& text) {
-  int w = 0, h = 0;
-  char x = 0, extra = 0;
-  if (std::sscanf(text.c_str(), "%d%c%d%c", &w, &x, &h, &extra) != 3 || (x != 'x' && x != 'X') || w < 1 || h < 1 ||
-      w > 256 || h > 256)
-    throw UsageError("--work-item must be WxH with 1 <= W, H <= 256 (e.g. 3x3), got '" + text + "'");
-  return {w, h};
 }
 
 bool is_node_mode(const std::string& mode) { return mode == "replicated" || mode == "svm" || mode == "dataflow"; }
