@@ -368,7 +368,13 @@ void run_render(const RenderOptions& o) {
   }
   const Accelerator accel = build_accelerator(o.accel, db);
 
-  const core::View cam_view = core::render_view(db);
+  const core::View cam_view = [&] {
+    try {
+      return core::render_view(db);
+    } catch (const std::runtime_error& e) {  // no view and bounds beyond float: name the scene
+      throw std::runtime_error(o.source.spec + ": " + e.what());
+    }
+  }();
   const std::uint64_t pixels = std::uint64_t(o.width > 0 ? o.width : cam_view.width) *
                                std::uint64_t(o.height > 0 ? o.height : cam_view.height);
   std::atomic<std::uint64_t> done{0};

@@ -45,7 +45,13 @@ void run_validate(const ValidateOptions& o) {
   gp.density = o.density;
   const core::Grid grid = core::build_grid(db, gp);
   const core::EmbreeScene embree(db);
-  const core::ValidateReport r = core::validate_grid(db, grid, embree, o.params);
+  const core::ValidateReport r = [&] {
+    try {
+      return core::validate_grid(db, grid, embree, o.params);
+    } catch (const std::exception& e) {  // a default camera or a ray out of Embree's range: name the scene
+      throw std::runtime_error(o.source.spec + ": " + e.what());
+    }
+  }();
 
   if (o.json) {
     nlohmann::json j;

@@ -27,7 +27,7 @@ class Camera {
                                   std::to_string(height));
     const Vec3 dir = view.at - view.from;
     if (!(dot(dir, dir) > 0.0f)) throw std::invalid_argument("view 'from' and 'at' are the same point");
-    w_ = normalize(dir);
+    w_ = normalize_any(dir);  // also when 'from' is farther than ~1.8e19 from 'at'
     const Vec3 right = cross(w_, view.up);
     if (!(length(right) > 1e-6f * length(view.up)))
       throw std::invalid_argument("view 'up' is parallel to the viewing direction");

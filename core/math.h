@@ -59,6 +59,17 @@ constexpr Vec3 max(const Vec3& a, const Vec3& b) {
 }
 inline Vec3 abs(const Vec3& a) { return {std::fabs(a.x), std::fabs(a.y), std::fabs(a.z)}; }
 constexpr float max_component(const Vec3& a) { return std::max(a.x, std::max(a.y, a.z)); }
+/// Unit vector along a for every finite non-zero a: normalize(a), bit for
+/// bit, when |a|^2 is a normal float; else a divided by its largest
+/// magnitude first, so that |a|^2 neither overflows (|a| beyond ~1.8e19,
+/// e.g. a camera far from its target) nor underflows.
+inline Vec3 normalize_any(const Vec3& a) {
+  const float d = dot(a, a);
+  if (d >= std::numeric_limits<float>::min() && d <= std::numeric_limits<float>::max()) return normalize(a);
+  const float m = max_component(abs(a));
+  if (!(m > 0.0f) || !std::isfinite(m)) return normalize(a);  // zero or not finite: NaNs, as normalize
+  return normalize(Vec3{a.x / m, a.y / m, a.z / m});
+}
 inline bool is_finite(const Vec3& a) {
   return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z);
 }

@@ -431,7 +431,7 @@ class Parser {
       lex_.fail_at(label_at[2], fmt::format("view 'up' {} is parallel to the viewing direction {} (it has no "
                                             "length)", text(v.up), text(dir)));
     }
-    if (!(length(cross(normalize(dir), v.up)) > 1e-6f * length(v.up))) {
+    if (!(length(cross(normalize_any(dir), v.up)) > 1e-6f * length(v.up))) {
       lex_.fail_at(label_at[2], fmt::format("view 'up' {} is parallel to the viewing direction {}{}", text(v.up),
                                             text(dir), std::isfinite(dot(v.up, v.up)) ? "" : " (or too long)"));
     }

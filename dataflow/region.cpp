@@ -13,7 +13,7 @@ CameraFrame CameraFrame::of(const core::View& view) {
   if (!(core::dot(dir, dir) > 0.0f)) throw std::invalid_argument("view 'from' and 'at' are the same point");
   CameraFrame f;
   f.origin = view.from;
-  f.w = core::normalize(dir);
+  f.w = core::normalize_any(dir);  // as core::Camera
   const core::Vec3 right = core::cross(f.w, view.up);
   if (!(core::length(right) > 1e-6f * core::length(view.up)))
     throw std::invalid_argument("view 'up' is parallel to the viewing direction");

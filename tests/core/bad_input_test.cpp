@@ -92,9 +92,33 @@ TEST_CASE("bad input: a scene without a view whose bounds overflow float gets a 
   } catch (const std::runtime_error& e) {
     CHECK(std::string(e.what()).find("reaches too far for a default camera") != std::string::npos);
   }
-  // Large but representable bounds still get a camera.
-  const Database ok = make_database(parse_nff("s 1e30 0 0 1\ns -1e30 0 0 1\n"));
-  CHECK(is_finite(render_view(ok).from));
+  // Large but representable bounds (|extent|^2 overflows float) still get a camera that sees the scene.
+  const Database ok = make_database(parse_nff("s 1e30 0 0 1e29\ns -1e30 0 0 1e29\n"));
+  const View v = render_view(ok);
+  CHECK(is_finite(v.from));
+  const Camera cam(v, 3, 3);
+  const Ray centre = cam.ray_through(1.5f, 1.5f);
+  CHECK(is_finite(centre.direction));
+  CHECK(length(centre.direction) == doctest::Approx(1.0f));
+  CHECK(dot(centre.direction, normalize_any(v.at - v.from)) > 0.999f);  // the centre ray looks at the centre
+}
+
+TEST_CASE("bad input: a camera farther than 1.8e19 from its target still aims at it (|from - at|^2 overflows float)") {
+  // Before: normalize(at - from) gave a zero vector and Camera threw "view 'up' is parallel".
+  const Scene s = parse_nff("v\nfrom 0 0 1e30\nat 0 0 0\nup 0 1 0\nangle 45\nhither 0\nresolution 3 3\ns 0 0 0 1e29\n");
+  const Camera cam(s.view, 3, 3);
+  const Ray r = cam.ray_through(1.5f, 1.5f);
+  CHECK(r.direction.x == 0.0f);
+  CHECK(r.direction.y == 0.0f);
+  CHECK(r.direction.z == -1.0f);
+  // normalize_any equals normalize where |a|^2 is a normal float, bit for bit.
+  for (const Vec3 a : {Vec3{1, 2, 3}, Vec3{-0.3f, 1e-3f, 7}, Vec3{1e18f, -2e18f, 3e17f}})
+    CHECK(normalize_any(a) == normalize(a));
+  const Vec3 n = normalize_any(Vec3{3e30f, 0, -4e30f});  // normalize() gives (0, 0, 0) here
+  CHECK(n.x == doctest::Approx(0.6f));
+  CHECK(n.y == 0.0f);
+  CHECK(n.z == doctest::Approx(-0.8f));
+  CHECK(length(normalize_any(Vec3{1e-30f, 1e-30f, 0})) == doctest::Approx(1.0f));
 }
 
 TEST_CASE("bad input: Embree refuses rays beyond its range with a message instead of aborting") {
