@@ -133,8 +133,8 @@ Grid build_grid(const Database& db, const GridParams& params) {
     for (int a = 0; a < 3; ++a) {
       const double l = (double(pb.lower[a]) - eps[a] - b.lower[a]) * info.inv_cell_size[a];
       const double h = (double(pb.upper[a]) + eps[a] - b.lower[a]) * info.inv_cell_size[a];
-      lo[a] = std::clamp(static_cast<int>(std::floor(l)), 0, info.res[a] - 1);
-      hi[a] = std::clamp(static_cast<int>(std::floor(h)), 0, info.res[a] - 1);
+      lo[a] = clamped_floor(l, info.res[a]);
+      hi[a] = clamped_floor(h, info.res[a]);
     }
   };
   auto cell_box = [&](int x, int y, int z, double c[3], double h[3]) {

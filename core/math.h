@@ -59,6 +59,13 @@ constexpr Vec3 max(const Vec3& a, const Vec3& b) {
 }
 inline Vec3 abs(const Vec3& a) { return {std::fabs(a.x), std::fabs(a.y), std::fabs(a.z)}; }
 constexpr float max_component(const Vec3& a) { return std::max(a.x, std::max(a.y, a.z)); }
+/// floor(v) clamped to [0, n - 1], n >= 1, clamped before the conversion to
+/// int (converting an out-of-range or NaN value is undefined behaviour: cells
+/// of a tiny grid, points far outside it); NaN gives 0.
+inline int clamped_floor(double v, int n) {
+  const double f = std::floor(v);
+  return f >= double(n - 1) ? n - 1 : (f > 0.0 ? static_cast<int>(f) : 0);
+}
 /// Unit vector along a for every finite non-zero a: normalize(a), bit for
 /// bit, when |a|^2 is a normal float; else a divided by its largest
 /// magnitude first, so that |a|^2 neither overflows (|a| beyond ~1.8e19,

@@ -202,8 +202,7 @@ inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
   float next_t[3];
   std::int32_t cell = 0;
   for (int a = 0; a < 3; ++a) {
-    int c = static_cast<int>(std::floor((pos[a] - lower[a]) * inv_size[a]));
-    c = c < 0 ? 0 : (c >= g.res[a] ? g.res[a] - 1 : c);
+    const int c = clamped_floor((pos[a] - lower[a]) * inv_size[a], g.res[a]);
     cell += c * stride[a];
     // Branch-free on the direction's sign (select, not jump).
     const bool pos_dir = dir[a] > 0.0f, neg_dir = dir[a] < 0.0f;

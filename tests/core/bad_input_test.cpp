@@ -5,6 +5,8 @@
 // target (fuzz/nff_fuzzer.cpp) adds its crashing inputs to this file.
 #include <doctest/doctest.h>
 
+#include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -135,4 +137,34 @@ TEST_CASE("bad input: Embree refuses rays beyond its range with a message instea
   CHECK_THROWS_AS(embree.intersect_any(far), std::domain_error);
   const Ray nan_interval{{0, 0, -5}, {0, 0, 1}, 0.0f, std::numeric_limits<float>::quiet_NaN()};
   CHECK_THROWS_AS(embree.intersect_any(nan_interval), std::domain_error);
+}
+
+TEST_CASE("bad input (fuzz): a triangle 1e-40 wide renders without converting a huge cell index to int") {
+  // nff_fuzzer, clang -fsanitize=undefined: "traverse.h:205: -1.49012e+16 is
+  // outside the range of representable values of type 'int'" (cells of
+  // 1e-41, a ray entering the grid a rounding error outside it). The same
+  // conversion in build_grid's cell ranges. Fixed with clamped_floor.
+  const Scene s = parse_nff("b 1e-45 -0 +0.5\n# a comment\n#another\np 3 0 0 0 1e-40 0 0 0 1e-40 0\n");
+  const Database db = make_database(s);
+  REQUIRE(db.primitives.size() == 1);
+  const Grid grid = build_grid(db);
+  RenderParams rp;
+  rp.width = rp.height = 3;
+  rp.max_depth = 3;
+  const RenderResult r = render(db, grid, rp);
+  REQUIRE(r.color.pixels.size() == 27);
+  for (float c : r.color.pixels) CHECK(std::isfinite(c));
+  CHECK(r.stats.rays.primary == 9);
+}
+
+TEST_CASE("bad input: clamped_floor clamps before converting, NaN and infinities included") {
+  CHECK(clamped_floor(2.5, 10) == 2);
+  CHECK(clamped_floor(-0.5, 10) == 0);
+  CHECK(clamped_floor(9.99, 10) == 9);
+  CHECK(clamped_floor(1e30, 10) == 9);
+  CHECK(clamped_floor(-1.49012e16, 10) == 0);
+  CHECK(clamped_floor(std::numeric_limits<double>::infinity(), 4) == 3);
+  CHECK(clamped_floor(-std::numeric_limits<double>::infinity(), 4) == 0);
+  CHECK(clamped_floor(std::numeric_limits<double>::quiet_NaN(), 4) == 0);
+  CHECK(clamped_floor(0.0, 1) == 0);
 }

@@ -52,10 +52,14 @@ TEST_CASE("determinism: sequential, shared, replicated and svm images are byte-i
       CAPTURE(name);
       CAPTURE(run);
       CHECK(same_bytes(core::render(b.db, b.grid, rp).color, seq.color));
+#if !defined(__SANITIZE_THREAD__)
+      // Shared mode runs on TBB, which ThreadSanitizer cannot see into (false
+      // reports inside libtbb, ../shared/TOOLCHAIN.md): checked in the other builds.
       core::RenderParams shared = rp;
       shared.mode = core::RenderMode::kShared;
       shared.tile_size = 4;  // many tiles: threads interleave
       CHECK(same_bytes(core::render(b.db, b.grid, shared).color, seq.color));
+#endif
       for (std::uint32_t n : {1u, 3u, 8u, 32u})
         for (Schedule s : {Schedule::kDefault, Schedule::kNetwork, Schedule::kOsThreads}) {
           CAPTURE(n);
