@@ -6,15 +6,16 @@
 // 8x8-pixel tiles; each tile's CPU time (least of --repeat passes) and its
 // operation counts make one sample; the tracer's unit costs are the
 // non-negative least-squares fit of time on counts, relative error. The
-// pager's costs (page access, page-table lookup, page fault) are then fitted
-// on whole svm runs, one and two nodes (network none, every page cached),
-// per node: busy CPU time minus the tracer's modelled time, on the pager's
-// counts (the fault's own cost is modelled, not fitted: see cost_model.h).
+// pager's costs (page access, cache access) are then fitted on tiles
+// rendered the same way through svm's pager and PagedView on node 0 of a
+// one- and a two-node machine, every page cached (see pager_samples); the
+// fault's own cost is modelled, not fitted: see cost_model.h.
 #include <fmt/core.h>
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <vector>
 
 #include "apps/commands.h"
@@ -25,7 +26,10 @@
 #include "core/render.h"
 #include "core/scene_source.h"
 #include "nodes/cpu_time.h"
-#include "svm/svm.h"
+#include "nodes/machine.h"
+#include "svm/paged_database.h"
+#include "svm/paged_view.h"
+#include "svm/pager.h"
 
 namespace raynode::apps {
 
@@ -83,32 +87,72 @@ std::vector<core::CostSample> tile_samples(const core::Database& db, const core:
   return samples;
 }
 
-/// Per-node samples of svm runs (cpu clock, network none, all pages cached).
+/// Per-tile samples of the svm tracer on node 0 of a 1- and a 2-node
+/// machine (the pager and PagedView of svm mode, every page cached after a
+/// first pass that takes the faults; node 1 only serves page requests, so
+/// node 0 computes alone and its tiles' CPU times hold no emulator cost).
 std::vector<core::CostSample> pager_samples(const core::Database& db, const core::Grid& grid, int width, int height,
                                             int repeat) {
+  const svm::PagedImage image = svm::build_paged_image(db, grid, 1024);
+  const core::Camera camera(core::render_view(db), width, height);
+  const core::ShadingContext shading = core::make_shading_context(db);
+  constexpr int kTile = 8;
+  const int tx = (width + kTile - 1) / kTile, ty = (height + kTile - 1) / kTile;
   std::vector<core::CostSample> out;
   for (std::uint32_t n : {1u, 2u}) {
-    svm::SvmParams p;
-    p.render.width = width;
-    p.render.height = height;
-    p.machine.nodes = n;
-    p.machine.node_memory = std::size_t(256) << 20;
-    p.machine.timeout_s = 600;
-    std::vector<core::CostSample> best;
-    for (int r = 0; r < repeat; ++r) {
-      const svm::SvmResult res = svm::render_svm(db, grid, p);
-      for (std::uint32_t i = 0; i < n; ++i) {
-        core::CostSample s;
-        s.seconds = res.run.nodes[i].counters.busy_s;
-        s.counts = core::cost_counts(res.tracing[i].rays, res.tracing[i].traversal);
-        s.counts[std::size_t(core::CostFeature::kPageAccess)] = double(res.pager[i].accesses);
-        s.counts[std::size_t(core::CostFeature::kPageLookup)] = double(res.pager[i].table_lookups);
-        s.counts[std::size_t(core::CostFeature::kPageFault)] = double(res.pager[i].misses);
-        if (r == 0) best.push_back(s);
-        else best[i].seconds = std::min(best[i].seconds, s.seconds);
-      }
-    }
-    out.insert(out.end(), best.begin(), best.end());
+    nodes::MachineParams mp;
+    mp.nodes = n;
+    mp.node_memory = std::size_t(2) * image.layout.bytes() + (std::size_t(16) << 20);
+    mp.max_payload = sizeof(svm::PageReplyMsg) + image.layout.page_size;
+    mp.timeout_s = 600;
+    std::vector<core::CostSample> samples(std::size_t(tx) * ty);
+    std::vector<double> best(samples.size(), 1e30);
+    nodes::Machine machine(mp);
+    machine.run(
+        [&](nodes::NodeContext& ctx) {
+          svm::Pager pager(ctx, image.layout, ctx.id() == 0 && n > 1 ? image.layout.pages : 0);
+          for (std::uint32_t p = ctx.id(); p < image.layout.pages; p += n)
+            std::memcpy(pager.home_frame(p), image.page(p).data(), image.layout.page_size);
+          if (ctx.id() != 0) {
+            while (true) {
+              const nodes::Message m = ctx.receive(nodes::WaitKind::kIdle);
+              if (m.type() == nodes::MessageType::kTest) return;
+              pager.serve(m);
+            }
+          }
+          const svm::PagedView view(pager, grid.info, db.materials);
+          core::ShadingScratch scratch;
+          for (int pass = 0; pass <= repeat; ++pass)  // pass 0 takes the faults
+            for (int j = 0; j < ty; ++j)
+              for (int i = 0; i < tx; ++i) {
+                core::CostCounts before = core::cost_counts(scratch.stats.rays, scratch.traversal.stats);
+                const svm::PagerStats p0 = pager.stats();
+                const double t0 = nodes::thread_cpu_seconds();
+                for (int y = j * kTile; y < std::min(height, (j + 1) * kTile); ++y)
+                  for (int x = i * kTile; x < std::min(width, (i + 1) * kTile); ++x) {
+                    pager.begin_pixel();
+                    (void)core::render_pixel(view, shading, camera, x, y, 1, false, scratch);
+                    pager.end_pixel();
+                  }
+                const double dt = nodes::thread_cpu_seconds() - t0;
+                if (pass == 0) continue;
+                const core::CostCounts after = core::cost_counts(scratch.stats.rays, scratch.traversal.stats);
+                const svm::PagerStats& p1 = pager.stats();
+                core::CostSample& s = samples[std::size_t(j) * tx + i];
+                for (int k = 0; k < core::kCostFeatureCount; ++k)
+                  s.counts[std::size_t(k)] = after[std::size_t(k)] - before[std::size_t(k)];
+                s.counts[std::size_t(core::CostFeature::kPageAccess)] = double(p1.accesses - p0.accesses);
+                s.counts[std::size_t(core::CostFeature::kCacheAccess)] =
+                    double(p1.cache_accesses - p0.cache_accesses);
+                s.counts[std::size_t(core::CostFeature::kPageFault)] = double(p1.misses - p0.misses);
+                best[std::size_t(j) * tx + i] = std::min(best[std::size_t(j) * tx + i], dt);
+              }
+          for (nodes::NodeId other = 1; other < n; ++other)
+            ctx.send(other, nodes::MessageType::kTest, std::uint32_t(0));
+        },
+        [](nodes::NodeContext&) {});
+    for (std::size_t k = 0; k < samples.size(); ++k) samples[k].seconds = best[k];
+    out.insert(out.end(), samples.begin(), samples.end());
   }
   return out;
 }
@@ -153,7 +197,7 @@ void register_bench_cost_model_command(CLI::App& app) {
       tiles.insert(tiles.end(), t.begin(), t.end());
       per_scene.emplace_back(text, std::move(t));
       if (o->pager) {
-        fmt::print(stderr, "{}: svm runs...\n", text);
+        fmt::print(stderr, "{}: svm tiles...\n", text);
         const std::vector<core::CostSample> p = pager_samples(db, grid, o->width, o->height, o->repeat);
         pager.insert(pager.end(), p.begin(), p.end());
       }
@@ -173,7 +217,7 @@ void register_bench_cost_model_command(CLI::App& app) {
     if (o->pager) m = core::fit_cost_model(pager, paging, m);
 
     fmt::print("unit costs (ns), fitted on {} tiles{}:\n", tiles.size(),
-               o->pager ? fmt::format(" and {} svm node runs", pager.size()) : "");
+               o->pager ? fmt::format(" and {} svm tiles", pager.size()) : "");
     for (int k = 0; k < core::kCostFeatureCount; ++k)
       fmt::print("  {:<14} {:10.3f}\n", core::cost_feature_name(core::CostFeature(k)), 1e9 * m.unit_s[std::size_t(k)]);
     fmt::print("\n{:<12} {:>12} {:>12} {:>10} {:>14}\n", "scene", "measured_s", "model_s", "model/cpu",
@@ -186,7 +230,7 @@ void register_bench_cost_model_command(CLI::App& app) {
     }
     if (o->pager) {
       const auto [ratio, rms] = fit_quality(m, pager);
-      fmt::print("{:<12} {:>12} {:>12} {:10.3f} {:14.3f}\n", "svm runs", "", "", ratio, rms);
+      fmt::print("{:<12} {:>12} {:>12} {:10.3f} {:14.3f}\n", "svm tiles", "", "", ratio, rms);
     }
     fmt::print("\nbuilt in now: {}\n", core::kCostModelSource);
   });

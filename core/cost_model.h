@@ -40,8 +40,8 @@ enum class CostFeature : int {
   kSphereTest,    ///< ray/sphere test
   kConeTest,      ///< ray/cone test
   kMailboxSkip,   ///< test avoided by the per-ray mailbox
-  kPageAccess,    ///< svm: object access through the pager (TLB path)
-  kPageLookup,    ///< svm: access that went through the page table (TLB miss)
+  kPageAccess,    ///< svm: object access through the page table
+  kCacheAccess,   ///< svm: first access in a pixel to a page that is not home (its LRU update)
   kPageFault,     ///< svm: local work of a page fault (victim, frame copy, table); modelled, not fitted
   kCount
 };
@@ -93,7 +93,7 @@ inline CostModel default_cost_model() {
   at(CostFeature::kConeTest) = 28.19e-9;
   at(CostFeature::kMailboxSkip) = 7.387e-9;
   at(CostFeature::kPageAccess) = 2.889e-9;
-  at(CostFeature::kPageLookup) = 21.85e-9;
+  at(CostFeature::kCacheAccess) = 21.85e-9;
   // Modelled, not fitted: the local work of a fault (pick the victim, copy
   // a 1 KiB page into its frame, update the table) ~ 0.15 us. The CPU time
   // of a fault in an emulated run (~2.6 us fitted) is mostly the emulator's

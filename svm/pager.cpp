@@ -17,7 +17,6 @@ constexpr int kSpinYields = 64;
 PagerStats& PagerStats::operator+=(const PagerStats& o) {
   accesses += o.accesses;
   cache_accesses += o.cache_accesses;
-  table_lookups += o.table_lookups;
   misses += o.misses;
   evictions += o.evictions;
   requests_served += o.requests_served;
@@ -30,7 +29,8 @@ PagerStats& PagerStats::operator+=(const PagerStats& o) {
 }
 
 std::size_t pager_table_bytes(const PageLayout& layout, std::uint32_t cache_pages) {
-  return std::size_t(layout.pages) * 8 + std::size_t(cache_pages) * 12 + layout.page_size;  // + the list buffer
+  return std::size_t(layout.pages) * 8 + std::size_t(cache_pages) * 12 +
+         (std::size_t(kPagerTouchedCapacity) + 1) * 4 + layout.page_size;  // + the list buffer
 }
 
 Pager::Pager(nodes::NodeContext& ctx, const PageLayout& layout, std::uint32_t cache_pages)
@@ -40,15 +40,18 @@ Pager::Pager(nodes::NodeContext& ctx, const PageLayout& layout, std::uint32_t ca
       home_frames_(layout.home_pages(ctx.id(), ctx.node_count())),
       cache_frames_(cache_pages),
       table_(ctx.arena(), layout.pages, "its page table"),
-      lru_(ctx.arena(), cache_pages, "its LRU links"),
+      frame_page_(ctx.arena(), cache_pages, "its cache frames' pages"),
+      frame_used_(ctx.arena(), cache_pages, "its LRU stamps"),
+      touched_(ctx.arena(), kTouchedCapacity + 1, "its touched-page list"),
       lines_(ctx.arena(), (std::size_t(home_frames_) + cache_pages + 1) * (layout.page_size / sizeof(Line)),
              "its home pages, page cache and list buffer") {
-  static_assert(sizeof(PageEntry) == 8 && sizeof(LruLink) == 12, "pager_table_bytes counts these sizes");
+  static_assert(sizeof(PageEntry) == 8 && kTouchedCapacity == kPagerTouchedCapacity,
+                "pager_table_bytes counts these sizes");
+  for (std::uint32_t f = 0; f < cache_pages; ++f) frame_page_[f] = kNone;
   frames_ = reinterpret_cast<std::byte*>(lines_.data());
   cache_base_ = frames_ + (std::size_t(home_frames_) << layout.page_shift);
   list_buffer_ = reinterpret_cast<std::uint32_t*>(frames_ + (std::size_t(home_frames_ + cache_pages) << layout.page_shift));
   for (std::uint32_t s = 0; s < home_frames_; ++s) table_[std::size_t(s) * nodes_ + ctx.id()].frame = s;
-  all_home_ = home_frames_ == layout.pages && nodes_ == 1;
   stats_.home_pages = home_frames_;
   stats_.cache_pages = cache_frames_;
 }
@@ -59,30 +62,37 @@ std::byte* Pager::home_frame(std::uint32_t page) {
   return frames_ + (std::size_t(PageLayout::home_slot(page, nodes_)) << layout_.page_shift);
 }
 
-void Pager::unlink(std::uint32_t f) {
-  LruLink& l = link(f);
-  if (l.prev != kNone) link(l.prev).next = l.next;
-  else mru_ = l.next;
-  if (l.next != kNone) link(l.next).prev = l.prev;
-  else lru_tail_ = l.prev;
-  l.prev = l.next = kNone;
+void Pager::flush_recency() {
+  for (std::uint32_t i = 0; i < touched_n_; ++i) {
+    const std::uint32_t f = table_[touched_[i]].frame;  // non-home: a cache frame or not resident
+    if (f != kNotResident) frame_used_[f - home_frames_] = ++lru_clock_;
+  }
+  stats_.cache_accesses += touched_n_;
+  touched_n_ = 0;
 }
 
-void Pager::push_front(std::uint32_t f) {
-  LruLink& l = link(f);
-  l.prev = kNone;
-  l.next = mru_;
-  if (mru_ != kNone) link(mru_).prev = f;
-  mru_ = f;
-  if (lru_tail_ == kNone) lru_tail_ = f;
+std::uint32_t Pager::lru_victim() const {
+  // Two passes over the stamps (each vectorises): the smallest, then where.
+  const std::uint64_t* u = frame_used_.data();
+  std::uint64_t least = u[0];
+  for (std::uint32_t f = 1; f < cache_frames_; ++f) least = std::min(least, u[f]);
+  std::uint32_t f = 0;
+  while (u[f] != least) ++f;
+  return home_frames_ + f;
 }
 
-void Pager::touch(std::uint32_t f) {
-  unlink(f);
-  push_front(f);
+const std::byte* Pager::slow_access(std::uint32_t page, std::uint32_t first) {
+  if (touched_n_ == kTouchedCapacity) flush_recency();
+  const std::uint32_t f = table_[page].frame;
+  if (f != kNotResident) return frames_ + (std::size_t(f) << layout_.page_shift);
+  // A page fetched and evicted again in this pixel (a tiny cache) is not in
+  // the touched list a second time: count its access here.
+  if (!first) ++stats_.cache_accesses;
+  return fault(page);
 }
 
 void Pager::end_pixel() {
+  flush_recency();
   if (!in_pixel_) return;
   ++stats_.pixels;
   stats_.pixel_pages += pixel_pages_;
@@ -94,10 +104,8 @@ void Pager::begin_pixel() {
   end_pixel();
   if (++pixel_stamp_ == 0) {  // wrapped: forget every stamp
     for (std::size_t p = 0; p < table_.size(); ++p) table_[p].stamp = 0;
-    for (Tlb& t : tlb_) t.key = ~std::uint64_t(0);
     pixel_stamp_ = 1;
   }
-  pixel_key_ = std::uint64_t(pixel_stamp_) << 32;  // retags the TLB: first accesses go through the table
   pixel_pages_ = 0;
   in_pixel_ = true;
   // Interrupt level: answer page requests that came in while we computed
@@ -139,16 +147,16 @@ const std::byte* Pager::fault(std::uint32_t page) {
     throw std::logic_error(fmt::format("{}: page {} is not home and the node has no cache",
                                        nodes::node_name(ctx_.id()), page));
   ++stats_.misses;
-  // The victim: a free cache frame, else the least recently used page.
+  // The victim: a free cache frame, else the least recently used page (the
+  // touches noted so far in this pixel count).
+  flush_recency();
   std::uint32_t victim;
   if (cache_used_ < cache_frames_) {
     victim = home_frames_ + cache_used_++;
   } else {
-    victim = lru_tail_;
-    unlink(victim);
-    table_[link(victim).page].frame = kNotResident;
-    forget(link(victim).page);
-    link(victim).page = kNone;
+    victim = lru_victim();
+    table_[frame_page_[victim - home_frames_]].frame = kNotResident;
+    frame_page_[victim - home_frames_] = kNone;
     ++stats_.evictions;
   }
 
@@ -198,8 +206,8 @@ const std::byte* Pager::fault(std::uint32_t page) {
   }
   ctx_.note_wait(nodes::WaitReason::kNone);
   ctx_.advance_to(arrival, nodes::WaitKind::kCommunication);
-  link(victim).page = page;
-  push_front(victim);
+  frame_page_[victim - home_frames_] = page;
+  frame_used_[victim - home_frames_] = ++lru_clock_;
   table_[page].frame = victim;
   // Compute again only with a run permit, answering requests meanwhile.
   while (released && !ctx_.try_resume()) {

@@ -10,12 +10,13 @@
 // reply, serving other nodes' page requests meanwhile and setting every
 // other message aside for the work loop (no deadlock: page service never
 // waits for anything). The victim frame is the least recently used cache
-// page ("LRU ... at no extra cost" in the paper: the choice is O(1)), where
-// a page's recency is that of its first access in each pixel: the LRU list
-// is updated when a pixel first touches a page (through the page table),
-// not on the pixel's later accesses to it (through the TLB), which keeps
-// the traversal's hot path free of list updates. Within one pixel, pages
-// therefore rank by first rather than last access.
+// page, where a page's recency is that of its first access in each pixel
+// (within one pixel, pages rank by first rather than last access): every
+// cache frame carries the LRU stamp of its page's last such touch, and the
+// victim is the frame with the smallest stamp (a scan of the stamps, at a
+// fault with a full cache). The stamps are given lazily, from a list of
+// the pixel's first touches, at the pixel's end or before a victim is
+// chosen, which keeps the traversal's hot path a page-table read.
 //
 // Virtual time: a request departs at the faulting node's clock; the home
 // node answers at interrupt level, at the request's arrival plus the
@@ -24,8 +25,8 @@
 // While it waits it gives its run permit back (nodes/scheduler.h).
 //
 // Memory (all in the node's arena): the page table (8 bytes per page of the
-// whole database), the home pages, the cache frames and 12 bytes of LRU
-// links per cache frame.
+// whole database), the home pages, the cache frames, 12 bytes per cache
+// frame (its page and LRU stamp) and the touched list (1 KiB).
 //
 // Thread safety: owner node thread only (setup runs on the host's thread
 // before the node starts).
@@ -50,8 +51,7 @@ struct PageReplyMsg {
 /// Counters of one node's pager.
 struct PagerStats {
   std::uint64_t accesses = 0;        ///< object accesses through the page table
-  std::uint64_t cache_accesses = 0;  ///< page-table lookups of pages that are not home pages (first per pixel)
-  std::uint64_t table_lookups = 0;   ///< accesses that went through the page table (TLB misses)
+  std::uint64_t cache_accesses = 0;  ///< first accesses in a pixel to pages that are not home (each an LRU update), + refaults
   std::uint64_t misses = 0;          ///< page faults: pages fetched from their home node
   std::uint64_t evictions = 0;       ///< cached pages dropped to make room (LRU)
   std::uint64_t requests_served = 0; ///< other nodes' page requests answered
@@ -64,8 +64,8 @@ struct PagerStats {
   std::uint64_t hits() const { return accesses - misses; }
   /// Faults per access, 0..1 (0 with no access).
   double miss_ratio() const { return accesses ? double(misses) / double(accesses) : 0.0; }
-  /// Faults per page-table lookup of a non-home page: the cache's own miss
-  /// ratio, counting each page once per pixel.
+  /// Faults per cache access: the cache's own miss ratio, counting each
+  /// non-home page once per pixel.
   double cache_miss_ratio() const { return cache_accesses ? double(misses) / double(cache_accesses) : 0.0; }
   /// The paper's "average pages per pixel" (Table 2).
   double pages_per_pixel() const { return pixels ? double(pixel_pages) / double(pixels) : 0.0; }
@@ -73,7 +73,12 @@ struct PagerStats {
 };
 
 
-/// Arena bytes a pager needs besides its frames: page table and LRU links.
+/// Length of a pager's touched list (first touches of non-home pages
+/// noted before their LRU update).
+inline constexpr std::uint32_t kPagerTouchedCapacity = 256;
+
+/// Arena bytes a pager needs besides its frames: page table, LRU stamps,
+/// touched list and list buffer.
 std::size_t pager_table_bytes(const PageLayout& layout, std::uint32_t cache_pages);
 
 class Pager {
@@ -90,35 +95,30 @@ class Pager {
   std::byte* home_frame(std::uint32_t page);
 
   /// The bytes of `page` (page_size of them, 64-byte aligned), valid until
-  /// the page is evicted (home pages never are). Faults
-  /// when it is not resident. Every call counts as an access. A page
-  /// already accessed in the current pixel takes a
-  /// short path: a direct-mapped translation cache (TLB) of kTlbEntries
-  /// pages whose tags include the pixel's stamp, so the first access of a
-  /// page in each pixel goes through the page table, which counts distinct
-  /// pages per pixel, and the short path stores nothing but the access
-  /// count. Throws what the messaging throws (nodes::RunAborted) and
-  /// std::logic_error on a protocol error.
+  /// the page is evicted (home pages never are). Faults when it is not
+  /// resident. Every call counts as an access and marks the page touched in
+  /// the current pixel (distinct pages per pixel).
   ///
-  /// A node that is home to every page (one node) needs no translation:
-  /// page p is frame p, so the address is computed, not looked up, and
-  /// only the counting touches the page table (off the address's path).
+  /// The hot path is the page table alone, the same for one node as for
+  /// 64, with no branch but "resident?": the first touch of a page in a
+  /// pixel is found by the entry's pixel stamp, branch-free, and a
+  /// non-home page's first touch is noted in a short list; that list
+  /// updates the pages' LRU recency at the pixel's end or at the next fault
+  /// (flush_recency), before any victim is chosen, so evictions are those of
+  /// an LRU updated at each first touch. Throws what the messaging throws
+  /// (nodes::RunAborted) and std::logic_error on a protocol error.
   const std::byte* access(std::uint32_t page) {
-    if (all_home_) {
-      // Branch-free counting (a branch on "first touch in this pixel"
-      // mispredicts ~20 times per pixel and measured slower).
-      PageEntry& e = table_[page];
-      pixel_pages_ += std::uint32_t(e.stamp != pixel_stamp_);
-      e.stamp = pixel_stamp_;
-      ++stats_.accesses;
-      return frames_ + (std::size_t(page) << layout_.page_shift);
-    }
-    const Tlb& t = tlb_[page & (kTlbEntries - 1)];
-    if (t.key == (pixel_key_ | page)) [[likely]] {
-      ++stats_.accesses;
-      return t.data;
-    }
-    return lookup(page);
+    PageEntry& e = table_[page];
+    const std::uint32_t f = e.frame;
+    const std::uint32_t first = std::uint32_t(e.stamp != pixel_stamp_);
+    e.stamp = pixel_stamp_;
+    pixel_pages_ += first;
+    ++stats_.accesses;
+    touched_[touched_n_] = page;  // kept only for a non-home page's first touch
+    touched_n_ += first & std::uint32_t(f >= home_frames_);
+    if ((f == kNotResident) | (touched_n_ == kTouchedCapacity)) [[unlikely]]
+      return slow_access(page, first);
+    return frames_ + (std::size_t(f) << layout_.page_shift);
   }
   /// True if `p` (from access()) lies in a cache frame, which a later
   /// access may evict; home pages never move.
@@ -149,61 +149,24 @@ class Pager {
  private:
   static constexpr std::uint32_t kNotResident = 0xffffffffu;
   static constexpr std::uint32_t kNone = 0xffffffffu;
+  /// First touches of non-home pages noted before the LRU is updated.
+  static constexpr std::uint32_t kTouchedCapacity = kPagerTouchedCapacity;
   struct PageEntry {
     std::uint32_t frame = kNotResident;  ///< frame index, or kNotResident
     std::uint32_t stamp = 0;             ///< pixel stamp of the last touch
-  };
-  struct LruLink {
-    std::uint32_t prev = kNone, next = kNone;  ///< frame indices, towards MRU / LRU
-    std::uint32_t page = kNone;                ///< page in the frame
   };
   struct alignas(64) Line {
     std::byte bytes[64];
   };
 
-  static constexpr std::uint32_t kTlbEntries = 64;  // power of two
-  struct Tlb {
-    std::uint64_t key = ~std::uint64_t(0);  ///< pixel stamp << 32 | page; ~0 = empty
-    const std::byte* data = nullptr;        ///< the frame
-  };
-  /// The page-table path of access(): counts, stamps, LRU, fault; fills `t`.
-  /// Out of line (also under the tracer's [[gnu::flatten]]), so that the
-  /// traversal loop keeps only the TLB check.
-  [[gnu::noinline]] const std::byte* lookup(std::uint32_t page) {
-    PageEntry& e = table_[page];
-    if (e.stamp != pixel_stamp_) {
-      e.stamp = pixel_stamp_;
-      ++pixel_pages_;
-    }
-    ++stats_.accesses;
-    ++stats_.table_lookups;
-    std::uint32_t f = e.frame;
-    const std::byte* data;
-    if (f == kNotResident) [[unlikely]] {
-      ++stats_.cache_accesses;
-      data = fault(page);
-      f = e.frame;
-    } else {
-      if (f >= home_frames_) cache_hit(f);
-      data = frames_ + (std::size_t(f) << layout_.page_shift);
-    }
-    tlb_[page & (kTlbEntries - 1)] = Tlb{pixel_key_ | page, data};
-    return data;
-  }
-  void cache_hit(std::uint32_t f) {
-    ++stats_.cache_accesses;
-    if (f != mru_) touch(f);
-  }
-  [[gnu::noinline]] void touch(std::uint32_t frame);
-  /// Forgets `page`'s translation (it was evicted).
-  void forget(std::uint32_t page) {
-    Tlb& t = tlb_[page & (kTlbEntries - 1)];
-    if (std::uint32_t(t.key) == page) t.key = ~std::uint64_t(0);
-  }
+  /// access()'s rare path: the touched list is full, or a page fault.
+  [[gnu::noinline]] const std::byte* slow_access(std::uint32_t page, std::uint32_t first);
+  /// Gives every page in the touched list a new LRU stamp, in first-touch
+  /// order, and counts them as cache accesses.
+  void flush_recency();
+  /// The cache frame whose page was least recently used (smallest stamp).
+  std::uint32_t lru_victim() const;
   [[gnu::noinline]] const std::byte* fault(std::uint32_t page);
-  void unlink(std::uint32_t frame);
-  void push_front(std::uint32_t frame);
-  LruLink& link(std::uint32_t frame) { return lru_[frame - home_frames_]; }
   /// Answers waiting page requests; defers other messages.
   void serve_or_defer(const nodes::Message& m);
 
@@ -213,17 +176,17 @@ class Pager {
   std::uint32_t home_frames_;
   std::uint32_t cache_frames_;
   std::uint32_t cache_used_ = 0;
-  std::uint32_t mru_ = kNone, lru_tail_ = kNone;
   nodes::ArenaArray<PageEntry> table_;
-  nodes::ArenaArray<LruLink> lru_;
+  nodes::ArenaArray<std::uint32_t> frame_page_;  ///< per cache frame: its page, or kNone
+  nodes::ArenaArray<std::uint64_t> frame_used_;  ///< per cache frame: LRU stamp of its last (first-per-pixel) touch
+  nodes::ArenaArray<std::uint32_t> touched_;     ///< kTouchedCapacity + 1 slots
   nodes::ArenaArray<Line> lines_;
   std::byte* frames_ = nullptr;
   const std::byte* cache_base_ = nullptr;  ///< first cache frame
-  bool all_home_ = false;                  ///< home to every page: frame == page
   std::uint32_t* list_buffer_ = nullptr;   ///< one page after the cache frames
-  Tlb tlb_[kTlbEntries];
+  std::uint32_t touched_n_ = 0;
+  std::uint64_t lru_clock_ = 0;  ///< last LRU stamp given
   std::uint32_t pixel_stamp_ = 1;
-  std::uint64_t pixel_key_ = std::uint64_t(1) << 32;  ///< pixel_stamp_ << 32, the TLB tags' high half
   std::uint32_t pixel_pages_ = 0;
   bool in_pixel_ = false;
   PagerStats stats_;

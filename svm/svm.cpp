@@ -54,7 +54,7 @@ struct NodeState {
     core::CostCounts c = core::cost_counts(s.scratch->stats.rays, s.scratch->traversal.stats);
     const PagerStats& p = s.pager->stats();
     c[std::size_t(core::CostFeature::kPageAccess)] = double(p.accesses);
-    c[std::size_t(core::CostFeature::kPageLookup)] = double(p.table_lookups);
+    c[std::size_t(core::CostFeature::kCacheAccess)] = double(p.cache_accesses);
     c[std::size_t(core::CostFeature::kPageFault)] = double(p.misses);
     return s.cost_model.seconds(c);
   }
@@ -274,7 +274,6 @@ nlohmann::json SvmResult::to_json() const {
                           {"misses", p.misses},
                           {"miss_ratio", p.miss_ratio()},
                           {"cache_accesses", p.cache_accesses},
-                          {"table_lookups", p.table_lookups},
                           {"cache_miss_ratio", p.cache_miss_ratio()},
                           {"evictions", p.evictions},
                           {"page_requests", c.sent[std::size_t(nodes::MessageType::kPageRequest)].messages},

@@ -77,7 +77,7 @@ TEST_CASE("pager: a miss fetches the page's bytes from its home node; LRU evicts
   });
 }
 
-TEST_CASE("pager: recency is a page's first access in each pixel; later accesses in the pixel take the TLB") {
+TEST_CASE("pager: recency is a page's first access in each pixel, not its later accesses in the pixel") {
   const testing::BuiltScene b = testing::build_spd("teapot", 2);
   const PagedImage image = build_paged_image(b.db, b.grid, 64);
   with_two_nodes(image, 2, [&](Pager& pager, nodes::NodeContext&) {
@@ -85,8 +85,8 @@ TEST_CASE("pager: recency is a page's first access in each pixel; later accesses
     pager.begin_pixel();
     pager.access(A);
     pager.access(B);
-    pager.access(A);  // same pixel: TLB, A stays older than B
-    CHECK(pager.stats().table_lookups == 2);
+    pager.access(A);  // same pixel: A stays older than B
+    CHECK(pager.stats().cache_accesses == 2);
     pager.begin_pixel();
     pager.access(A);  // a new pixel: A becomes the most recent
     pager.access(C);  // evicts B, not A
@@ -165,4 +165,55 @@ TEST_CASE("pager: a request for a page that does not live on the node is a proto
                            },
                            [](nodes::NodeContext&) {}),
                        doctest::Contains("does not live here"), nodes::NodeError);
+}
+
+TEST_CASE("pager: LRU stays exact when a pixel first-touches more pages than the touched list holds") {
+  // The touched list (kPagerTouchedCapacity first touches) is flushed when
+  // full, in the middle of a pixel: the order of the pages' LRU stamps must
+  // still be their first-touch order.
+  const testing::BuiltScene b = testing::build_spd("teapot", 8);
+  const PagedImage image = build_paged_image(b.db, b.grid, 64);
+  const std::uint32_t cache = kPagerTouchedCapacity + 44;
+  REQUIRE(image.layout.pages > 2 * (cache + 2));
+  auto remote = [](std::uint32_t k) { return 2 * k + 1; };  // pages homed at node 1
+  with_two_nodes(image, cache, [&](Pager& pager, nodes::NodeContext&) {
+    pager.begin_pixel();
+    for (std::uint32_t k = 0; k < cache; ++k) pager.access(remote(k));  // fills the cache
+    CHECK(pager.stats().misses == cache);
+    pager.begin_pixel();
+    // Touch all but page k = 7, past the list's capacity, then fault twice.
+    for (std::uint32_t k = 0; k < cache; ++k)
+      if (k != 7) pager.access(remote(k));
+    CHECK(pager.stats().misses == cache);
+    pager.access(remote(cache));  // evicts k = 7, the only page this pixel left alone
+    CHECK(!pager.resident(remote(7)));
+    pager.access(remote(cache + 1));  // then k = 0, the pixel's first touch
+    CHECK(!pager.resident(remote(0)));
+    for (std::uint32_t k = 1; k < cache + 2; ++k)
+      if (k != 7) CHECK(pager.resident(remote(k)));
+    pager.end_pixel();
+    CHECK(pager.stats().evictions == 2);
+    CHECK(pager.stats().pixel_pages == cache + (cache - 1 + 2));
+    // Each page once per pixel it was touched in.
+    CHECK(pager.stats().cache_accesses == cache + (cache - 1 + 2));
+  });
+}
+
+TEST_CASE("pager: a page fetched again within its pixel (1-page cache) counts one more cache access") {
+  const testing::BuiltScene b = testing::build_spd("teapot", 2);
+  const PagedImage image = build_paged_image(b.db, b.grid, 64);
+  with_two_nodes(image, 1, [&](Pager& pager, nodes::NodeContext&) {
+    const std::uint32_t A = 1, B = 3;
+    pager.begin_pixel();
+    CHECK(std::memcmp(pager.access(A), image.page(A).data(), 64) == 0);
+    CHECK(std::memcmp(pager.access(B), image.page(B).data(), 64) == 0);  // evicts A
+    CHECK(std::memcmp(pager.access(A), image.page(A).data(), 64) == 0);  // fetched again
+    pager.access(0);                                                     // home
+    pager.end_pixel();
+    CHECK(pager.stats().misses == 3);
+    CHECK(pager.stats().cache_accesses == 3);
+    CHECK(pager.stats().cache_miss_ratio() == doctest::Approx(1.0));
+    CHECK(pager.stats().pixel_pages == 3);
+    CHECK(pager.stats().accesses == 4);
+  });
 }
