@@ -29,7 +29,7 @@ PagerStats& PagerStats::operator+=(const PagerStats& o) {
 }
 
 std::size_t pager_table_bytes(const PageLayout& layout, std::uint32_t cache_pages) {
-  return std::size_t(layout.pages) * 8 + std::size_t(cache_pages) * 12 +
+  return std::size_t(layout.pages) * 8 + std::size_t(cache_pages) * 24 +
          (std::size_t(kPagerTouchedCapacity) + 1) * 4 + layout.page_size;  // + the list buffer
 }
 
@@ -42,10 +42,11 @@ Pager::Pager(nodes::NodeContext& ctx, const PageLayout& layout, std::uint32_t ca
       table_(ctx.arena(), layout.pages, "its page table"),
       frame_page_(ctx.arena(), cache_pages, "its cache frames' pages"),
       frame_used_(ctx.arena(), cache_pages, "its LRU stamps"),
+      events_(ctx.arena(), std::size_t(cache_pages) * 2, "its LRU stamp events"),
       touched_(ctx.arena(), kTouchedCapacity + 1, "its touched-page list"),
       lines_(ctx.arena(), (std::size_t(home_frames_) + cache_pages + 1) * (layout.page_size / sizeof(Line)),
              "its home pages, page cache and list buffer") {
-  static_assert(sizeof(PageEntry) == 8 && kTouchedCapacity == kPagerTouchedCapacity,
+  static_assert(sizeof(PageEntry) == 8 && sizeof(LruEvent) == 8 && kTouchedCapacity == kPagerTouchedCapacity,
                 "pager_table_bytes counts these sizes");
   for (std::uint32_t f = 0; f < cache_pages; ++f) frame_page_[f] = kNone;
   frames_ = reinterpret_cast<std::byte*>(lines_.data());
@@ -65,20 +66,38 @@ std::byte* Pager::home_frame(std::uint32_t page) {
 void Pager::flush_recency() {
   for (std::uint32_t i = 0; i < touched_n_; ++i) {
     const std::uint32_t f = table_[touched_[i]].frame;  // non-home: a cache frame or not resident
-    if (f != kNotResident) frame_used_[f - home_frames_] = ++lru_clock_;
+    if (f != kNotResident) stamp(f - home_frames_);
   }
   stats_.cache_accesses += touched_n_;
   touched_n_ = 0;
 }
 
-std::uint32_t Pager::lru_victim() const {
-  // Two passes over the stamps (each vectorises): the smallest, then where.
-  const std::uint64_t* u = frame_used_.data();
-  std::uint64_t least = u[0];
-  for (std::uint32_t f = 1; f < cache_frames_; ++f) least = std::min(least, u[f]);
-  std::uint32_t f = 0;
-  while (u[f] != least) ++f;
-  return home_frames_ + f;
+void Pager::compact_events() {
+  // In place, oldest first: an event is kept while it is its frame's stamp
+  // (at most one per frame, so at least half the ring comes free).
+  const std::size_t size = events_.size();
+  std::size_t kept = 0;
+  for (std::size_t i = 0, from = events_head_; i < events_n_; ++i) {
+    const LruEvent e = events_[from];
+    if (frame_used_[e.frame] == e.stamp) {
+      std::size_t to = events_head_ + kept;
+      if (to >= size) to -= size;
+      events_[to] = e;
+      ++kept;
+    }
+    if (++from == size) from = 0;
+  }
+  events_n_ = kept;
+}
+
+std::uint32_t Pager::lru_victim() {
+  // Every occupied frame's stamp is queued, so a full cache finds one.
+  while (true) {
+    const LruEvent e = events_[events_head_];
+    if (++events_head_ == events_.size()) events_head_ = 0;
+    --events_n_;
+    if (frame_used_[e.frame] == e.stamp) return home_frames_ + e.frame;
+  }
 }
 
 const std::byte* Pager::slow_access(std::uint32_t page, std::uint32_t first) {
@@ -207,7 +226,7 @@ const std::byte* Pager::fault(std::uint32_t page) {
   ctx_.note_wait(nodes::WaitReason::kNone);
   ctx_.advance_to(arrival, nodes::WaitKind::kCommunication);
   frame_page_[victim - home_frames_] = page;
-  frame_used_[victim - home_frames_] = ++lru_clock_;
+  stamp(victim - home_frames_);
   table_[page].frame = victim;
   // Compute again only with a run permit, answering requests meanwhile.
   while (released && !ctx_.try_resume()) {

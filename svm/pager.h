@@ -12,11 +12,12 @@
 // waits for anything). The victim frame is the least recently used cache
 // page, where a page's recency is that of its first access in each pixel
 // (within one pixel, pages rank by first rather than last access): every
-// cache frame carries the LRU stamp of its page's last such touch, and the
-// victim is the frame with the smallest stamp (a scan of the stamps, at a
-// fault with a full cache). The stamps are given lazily, from a list of
-// the pixel's first touches, at the pixel's end or before a victim is
-// chosen, which keeps the traversal's hot path a page-table read.
+// cache frame carries the LRU stamp of its page's last such touch, and
+// every stamp given is queued; the victim is the oldest queued stamp that
+// is still its frame's (O(1) amortised, "at no extra cost" as in the
+// paper). The stamps are given lazily, from a list of the pixel's first
+// touches, at the pixel's end or before a victim is chosen, which keeps
+// the traversal's hot path a page-table read.
 //
 // Virtual time: a request departs at the faulting node's clock; the home
 // node answers at interrupt level, at the request's arrival plus the
@@ -25,8 +26,9 @@
 // While it waits it gives its run permit back (nodes/scheduler.h).
 //
 // Memory (all in the node's arena): the page table (8 bytes per page of the
-// whole database), the home pages, the cache frames, 12 bytes per cache
-// frame (its page and LRU stamp) and the touched list (1 KiB).
+// whole database), the home pages, the cache frames, 24 bytes per cache
+// frame (its page, its LRU stamp, two queued stamp events) and the touched
+// list (1 KiB).
 //
 // Thread safety: owner node thread only (setup runs on the host's thread
 // before the node starts).
@@ -158,14 +160,34 @@ class Pager {
   struct alignas(64) Line {
     std::byte bytes[64];
   };
+  /// A stamp given to a cache frame, in stamp order in a ring buffer.
+  /// Stamps are compared for equality only: a stale event is dropped within
+  /// one ring's length of stamps, so 32 bits cannot wrap onto it.
+  struct LruEvent {
+    std::uint32_t frame;  ///< index among the cache frames
+    std::uint32_t stamp;
+  };
 
   /// access()'s rare path: the touched list is full, or a page fault.
   [[gnu::noinline]] const std::byte* slow_access(std::uint32_t page, std::uint32_t first);
   /// Gives every page in the touched list a new LRU stamp, in first-touch
   /// order, and counts them as cache accesses.
   void flush_recency();
-  /// The cache frame whose page was least recently used (smallest stamp).
-  std::uint32_t lru_victim() const;
+  /// Gives cache frame `f` (index among the cache frames) a new LRU stamp.
+  void stamp(std::uint32_t f) {
+    frame_used_[f] = ++lru_clock_;
+    if (events_n_ == events_.size()) compact_events();
+    std::size_t at = events_head_ + events_n_;
+    if (at >= events_.size()) at -= events_.size();
+    events_[at] = LruEvent{f, lru_clock_};
+    ++events_n_;
+  }
+  /// Drops the stamp events that a later stamp of their frame replaced.
+  void compact_events();
+  /// The cache frame whose page was least recently used: the oldest event
+  /// that is still its frame's stamp. O(1) amortised (each event is
+  /// dropped once).
+  std::uint32_t lru_victim();
   [[gnu::noinline]] const std::byte* fault(std::uint32_t page);
   /// Answers waiting page requests; defers other messages.
   void serve_or_defer(const nodes::Message& m);
@@ -178,14 +200,16 @@ class Pager {
   std::uint32_t cache_used_ = 0;
   nodes::ArenaArray<PageEntry> table_;
   nodes::ArenaArray<std::uint32_t> frame_page_;  ///< per cache frame: its page, or kNone
-  nodes::ArenaArray<std::uint64_t> frame_used_;  ///< per cache frame: LRU stamp of its last (first-per-pixel) touch
+  nodes::ArenaArray<std::uint32_t> frame_used_;  ///< per cache frame: LRU stamp of its last (first-per-pixel) touch
+  nodes::ArenaArray<LruEvent> events_;           ///< ring of stamp events, oldest first (2 per cache frame)
+  std::size_t events_head_ = 0, events_n_ = 0;
   nodes::ArenaArray<std::uint32_t> touched_;     ///< kTouchedCapacity + 1 slots
   nodes::ArenaArray<Line> lines_;
   std::byte* frames_ = nullptr;
   const std::byte* cache_base_ = nullptr;  ///< first cache frame
   std::uint32_t* list_buffer_ = nullptr;   ///< one page after the cache frames
   std::uint32_t touched_n_ = 0;
-  std::uint64_t lru_clock_ = 0;  ///< last LRU stamp given
+  std::uint32_t lru_clock_ = 0;  ///< last LRU stamp given
   std::uint32_t pixel_stamp_ = 1;
   std::uint32_t pixel_pages_ = 0;
   bool in_pixel_ = false;
