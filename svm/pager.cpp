@@ -29,8 +29,9 @@ PagerStats& PagerStats::operator+=(const PagerStats& o) {
 }
 
 std::size_t pager_table_bytes(const PageLayout& layout, std::uint32_t cache_pages) {
-  return std::size_t(layout.pages) * 8 + std::size_t(cache_pages) * 24 +
-         (std::size_t(kPagerTouchedCapacity) + 1) * 4 + layout.page_size;  // + the list buffer
+  // + the list buffer, + alignment of the five arrays (64 B each at most)
+  return std::size_t(layout.pages) * 8 + std::size_t(cache_pages) * kPagerFrameOverheadBytes +
+         (std::size_t(kPagerTouchedCapacity) + 1) * 4 + layout.page_size + 5 * 64;
 }
 
 Pager::Pager(nodes::NodeContext& ctx, const PageLayout& layout, std::uint32_t cache_pages)
@@ -46,7 +47,8 @@ Pager::Pager(nodes::NodeContext& ctx, const PageLayout& layout, std::uint32_t ca
       touched_(ctx.arena(), kTouchedCapacity + 1, "its touched-page list"),
       lines_(ctx.arena(), (std::size_t(home_frames_) + cache_pages + 1) * (layout.page_size / sizeof(Line)),
              "its home pages, page cache and list buffer") {
-  static_assert(sizeof(PageEntry) == 8 && sizeof(LruEvent) == 8 && kTouchedCapacity == kPagerTouchedCapacity,
+  static_assert(sizeof(PageEntry) == 8 && sizeof(std::uint32_t) * 2 + 2 * sizeof(LruEvent) == kPagerFrameOverheadBytes &&
+                    kTouchedCapacity == kPagerTouchedCapacity,
                 "pager_table_bytes counts these sizes");
   for (std::uint32_t f = 0; f < cache_pages; ++f) frame_page_[f] = kNone;
   frames_ = reinterpret_cast<std::byte*>(lines_.data());

@@ -79,6 +79,10 @@ struct PagerStats {
 /// noted before their LRU update).
 inline constexpr std::uint32_t kPagerTouchedCapacity = 256;
 
+/// Arena bytes a pager keeps per cache frame besides the frame: its page,
+/// its LRU stamp and two queued stamp events.
+inline constexpr std::size_t kPagerFrameOverheadBytes = 24;
+
 /// Arena bytes a pager needs besides its frames: page table, LRU stamps,
 /// touched list and list buffer.
 std::size_t pager_table_bytes(const PageLayout& layout, std::uint32_t cache_pages);

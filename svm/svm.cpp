@@ -90,7 +90,7 @@ std::uint32_t cache_frames_for(const PageLayout& layout, const SvmParams& params
   const std::uint32_t n = params.machine.nodes;
   const std::size_t budget = params.machine.node_memory;
   const std::size_t ps = layout.page_size;
-  const std::size_t frame_cost = ps + 12;  // frame + LRU links
+  const std::size_t frame_cost = ps + kPagerFrameOverheadBytes;
   const std::uint32_t home = layout.home_pages(node, n);
   const std::uint32_t useful = layout.pages - home;  // more cache than this is never used
   const std::size_t home_bytes = std::size_t(home) * ps;

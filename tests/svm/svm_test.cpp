@@ -152,6 +152,25 @@ TEST_CASE("svm: a requested cache that does not fit is refused with the sizes; a
   CHECK_THROWS_AS(render_svm(b.db, b.grid, p), std::invalid_argument);
 }
 
+TEST_CASE("svm: the default cache takes the memory left and fits in it, to the byte") {
+  // Nodes too small to cache every page: the cache is sized from the
+  // memory left after the fixed parts and the pager's per-frame overhead
+  // (an overhead counted short makes the render fail to allocate).
+  const testing::BuiltScene b = testing::build_spd("tetra", 8);
+  const core::RenderResult seq = core::render(b.db, b.grid, small_params(1, 0).render);
+  for (std::size_t memory : {std::size_t(4) << 20, (std::size_t(5) << 20) + 17}) {
+    CAPTURE(memory);
+    SvmParams p = small_params(4, 0);
+    p.machine.node_memory = memory;
+    const SvmResult r = render_svm(b.db, b.grid, p);
+    CHECK(testing::same_bytes(r.render.color, seq.color));
+    for (const PagerStats& s : r.pager) {
+      CHECK(s.cache_pages > 0);
+      CHECK(s.cache_pages < r.layout.pages - s.home_pages);  // limited by memory, not by the database
+    }
+  }
+}
+
 TEST_CASE("svm: cache given as a fraction of the database's pages") {
   const testing::BuiltScene b = testing::build_spd("rings", 1);
   SvmParams p = small_params(4, 0);
