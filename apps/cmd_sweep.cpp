@@ -337,6 +337,19 @@ std::size_t add_svm_t1_row(Table& t, const SweepFrame& f, const SweepOptions& o,
   return row;
 }
 
+/// A sweep point's row: svm on `o.nodes` nodes with cache `cache_label`.
+std::size_t add_svm_point_row(Table& t, const SweepFrame& f, const SweepOptions& o, std::uint32_t nodes,
+                              const NodeRun& r, const std::string& cache_label, double t1) {
+  const std::size_t row = t.add_row();
+  t.set(row, "role", "point");
+  t.set(row, "mode", "svm");
+  t.set(row, "nodes", fmt::format("{}", nodes));
+  t.set(row, "cache", cache_label);
+  fill_run(t, row, r, nodes, t1);
+  fill_settings(t, row, f, o, r.node_memory);
+  return row;
+}
+
 NodeRun run_t1(SweepFrame& f, const std::string& mode, NodeRunSpec spec, std::string& note) {
   spec.repeat = std::max(spec.repeat, kT1MinRepeat);
   NodeRun r = run_best(f.db, f.grid, mode, spec, 1);
@@ -481,14 +494,8 @@ void run_sweep_cache(CacheSweepOptions& o) {
   for (const CachePoint& p : points) {
     const NodeRun r = run_best(f.db, f.grid, "svm", with_cache(f.spec, p), o.nodes);
     if (!r.fits && first_skip.empty()) first_skip = r.skipped;
-    const std::size_t row = t.add_row();
-    t.set(row, "role", "point");
-    t.set(row, "mode", "svm");
-    t.set(row, "nodes", fmt::format("{}", o.nodes));
-    t.set(row, "cache", p.label);
-    fill_run(t, row, r, o.nodes, t1);
+    const std::size_t row = add_svm_point_row(t, f, o, o.nodes, r, p.label, t1);
     if (!r.fits && p.fraction > 0) t.set(row, "cache_percent", num(100.0 * p.fraction));
-    fill_settings(t, row, f, o, r.node_memory);
     f.progress(fmt::format("svm {} nodes, cache {}", o.nodes, p.label), r, t1, o.nodes);
   }
   require_some_fit(t, f, first_skip);
@@ -543,13 +550,7 @@ void run_sweep_page_size(PageSizeSweepOptions& o) {
 
     const NodeRun r = run_best(f.db, f.grid, "svm", with_cache(spec, cache), o.nodes);
     if (!r.fits && first_skip.empty()) first_skip = r.skipped;
-    row = t.add_row();
-    t.set(row, "role", "point");
-    t.set(row, "mode", "svm");
-    t.set(row, "nodes", fmt::format("{}", o.nodes));
-    t.set(row, "cache", cache.label);
-    fill_run(t, row, r, o.nodes, t1);
-    fill_settings(t, row, f, o, r.node_memory);
+    row = add_svm_point_row(t, f, o, o.nodes, r, cache.label, t1);
     t.set(row, "page_size", fmt::format("{}", ps));
     f.progress(fmt::format("svm {} nodes, page size {} B", o.nodes, ps), r, t1, o.nodes);
   }

@@ -144,6 +144,13 @@ NodeRun run_node_mode(const core::Database& db, const core::Grid& grid, const st
   NodeRun out;
   out.node_memory = mp.node_memory;
   const auto t0 = std::chrono::steady_clock::now();
+  // What every mode's result has: its run and its render.
+  auto common = [&](const auto& r) {
+    out.wall_s = seconds_since(t0);
+    out.parallel_time_s = r.run.parallel_time_s;
+    out.work_s = busy_sum(r.run);
+    out.rays = r.render.stats.rays.total();
+  };
   try {
     if (mode == "svm") {
       svm::SvmParams p;
@@ -155,10 +162,7 @@ NodeRun run_node_mode(const core::Database& db, const core::Grid& grid, const st
       p.cache_pages = spec.cache_pages;
       p.cache_fraction = spec.cache_fraction;
       const svm::SvmResult r = svm::render_svm(db, grid, p);
-      out.wall_s = seconds_since(t0);
-      out.parallel_time_s = r.run.parallel_time_s;
-      out.work_s = busy_sum(r.run);
-      out.rays = r.render.stats.rays.total();
+      common(r);
       out.grants = grants_sum(r.work);
       const svm::PagerStats t = r.pager_total();
       out.miss_ratio = t.miss_ratio();
@@ -180,10 +184,7 @@ NodeRun run_node_mode(const core::Database& db, const core::Grid& grid, const st
       p.item_w = spec.item_w;
       p.item_h = spec.item_h;
       const nodes::ReplicatedResult r = nodes::render_replicated(db, grid, p);
-      out.wall_s = seconds_since(t0);
-      out.parallel_time_s = r.run.parallel_time_s;
-      out.work_s = busy_sum(r.run);
-      out.rays = r.render.stats.rays.total();
+      common(r);
       out.grants = grants_sum(r.work);
     } else if (mode == "dataflow") {
       dataflow::DataflowParams p;
@@ -193,10 +194,7 @@ NodeRun run_node_mode(const core::Database& db, const core::Grid& grid, const st
       p.subsample = spec.subsample;
       p.partition = spec.partition;
       const dataflow::DataflowResult r = dataflow::render_dataflow(db, grid, p);
-      out.wall_s = seconds_since(t0);
-      out.parallel_time_s = r.run.parallel_time_s;
-      out.work_s = busy_sum(r.run);
-      out.rays = r.render.stats.rays.total();
+      common(r);
       out.ray_messages = r.ray_messages();
       out.spill_fraction = r.spill_fraction();
       out.average_load = r.average_load();
