@@ -57,34 +57,52 @@ core::SceneSource parse_scene(const std::string& text) {
   return s;
 }
 
-/// Per-tile samples of the sequential tracer over `db`.
-std::vector<core::CostSample> tile_samples(const core::Database& db, const core::Grid& grid, int width, int height,
-                                           int repeat) {
-  const core::DirectView view(db, grid);
+/// Per-tile samples of the tracer over `view` (the image of `db`'s view,
+/// in 8x8-pixel tiles): each tile's operation counts and the least CPU time
+/// of `repeat` passes, after `warmup` passes that are not timed.
+/// `counters(c)` writes the counts the tracer does not keep (the pager's)
+/// into `c`, as running totals; `pixel(trace)` runs one pixel's `trace()`.
+template <class View, class Counters, class Pixel>
+std::vector<core::CostSample> sample_tiles(const View& view, const core::Database& db, int width, int height,
+                                           int warmup, int repeat, Counters&& counters, Pixel&& pixel) {
   const core::Camera camera(core::render_view(db), width, height);
   const core::ShadingContext shading = core::make_shading_context(db);
   constexpr int kTile = 8;
   const int tx = (width + kTile - 1) / kTile, ty = (height + kTile - 1) / kTile;
   std::vector<core::CostSample> samples(std::size_t(tx) * ty);
   std::vector<double> best(samples.size(), 1e30);
-  for (int pass = 0; pass < repeat; ++pass) {
-    core::ShadingScratch scratch;
+  core::ShadingScratch scratch;
+  auto counts = [&] {
+    core::CostCounts c = core::cost_counts(scratch.stats.rays, scratch.traversal.stats);
+    counters(c);
+    return c;
+  };
+  for (int pass = 0; pass < warmup + repeat; ++pass)
     for (int j = 0; j < ty; ++j)
       for (int i = 0; i < tx; ++i) {
-        const core::CostCounts before = core::cost_counts(scratch.stats.rays, scratch.traversal.stats);
+        const core::CostCounts before = counts();
         const double t0 = nodes::thread_cpu_seconds();
         for (int y = j * kTile; y < std::min(height, (j + 1) * kTile); ++y)
           for (int x = i * kTile; x < std::min(width, (i + 1) * kTile); ++x)
-            (void)core::render_pixel(view, shading, camera, x, y, 1, false, scratch);
+            pixel([&] { (void)core::render_pixel(view, shading, camera, x, y, 1, false, scratch); });
         const double dt = nodes::thread_cpu_seconds() - t0;
-        const core::CostCounts after = core::cost_counts(scratch.stats.rays, scratch.traversal.stats);
-        core::CostSample& s = samples[std::size_t(j) * tx + i];
-        for (int k = 0; k < core::kCostFeatureCount; ++k) s.counts[std::size_t(k)] = after[std::size_t(k)] - before[std::size_t(k)];
-        best[std::size_t(j) * tx + i] = std::min(best[std::size_t(j) * tx + i], dt);
+        if (pass < warmup) continue;
+        const core::CostCounts after = counts();
+        const std::size_t k = std::size_t(j) * tx + i;
+        for (int f = 0; f < core::kCostFeatureCount; ++f)
+          samples[k].counts[std::size_t(f)] = after[std::size_t(f)] - before[std::size_t(f)];
+        best[k] = std::min(best[k], dt);
       }
-  }
   for (std::size_t k = 0; k < samples.size(); ++k) samples[k].seconds = best[k];
   return samples;
+}
+
+/// Per-tile samples of the sequential tracer over `db`.
+std::vector<core::CostSample> tile_samples(const core::Database& db, const core::Grid& grid, int width, int height,
+                                           int repeat) {
+  return sample_tiles(
+      core::DirectView(db, grid), db, width, height, 0, repeat, [](core::CostCounts&) {},
+      [](auto&& trace) { trace(); });
 }
 
 /// Per-tile samples of the svm tracer on node 0 of a 1- and a 2-node
@@ -94,10 +112,6 @@ std::vector<core::CostSample> tile_samples(const core::Database& db, const core:
 std::vector<core::CostSample> pager_samples(const core::Database& db, const core::Grid& grid, int width, int height,
                                             int repeat) {
   const svm::PagedImage image = svm::build_paged_image(db, grid, 1024);
-  const core::Camera camera(core::render_view(db), width, height);
-  const core::ShadingContext shading = core::make_shading_context(db);
-  constexpr int kTile = 8;
-  const int tx = (width + kTile - 1) / kTile, ty = (height + kTile - 1) / kTile;
   std::vector<core::CostSample> out;
   for (std::uint32_t n : {1u, 2u}) {
     nodes::MachineParams mp;
@@ -105,8 +119,7 @@ std::vector<core::CostSample> pager_samples(const core::Database& db, const core
     mp.node_memory = std::size_t(2) * image.layout.bytes() + (std::size_t(16) << 20);
     mp.max_payload = sizeof(svm::PageReplyMsg) + image.layout.page_size;
     mp.timeout_s = 600;
-    std::vector<core::CostSample> samples(std::size_t(tx) * ty);
-    std::vector<double> best(samples.size(), 1e30);
+    std::vector<core::CostSample> samples;
     nodes::Machine machine(mp);
     machine.run(
         [&](nodes::NodeContext& ctx) {
@@ -120,38 +133,24 @@ std::vector<core::CostSample> pager_samples(const core::Database& db, const core
               pager.serve(m);
             }
           }
-          const svm::PagedView view(pager, grid.info, db.materials);
-          core::ShadingScratch scratch;
-          for (int pass = 0; pass <= repeat; ++pass)  // pass 0 takes the faults
-            for (int j = 0; j < ty; ++j)
-              for (int i = 0; i < tx; ++i) {
-                core::CostCounts before = core::cost_counts(scratch.stats.rays, scratch.traversal.stats);
-                const svm::PagerStats p0 = pager.stats();
-                const double t0 = nodes::thread_cpu_seconds();
-                for (int y = j * kTile; y < std::min(height, (j + 1) * kTile); ++y)
-                  for (int x = i * kTile; x < std::min(width, (i + 1) * kTile); ++x) {
-                    pager.begin_pixel();
-                    (void)core::render_pixel(view, shading, camera, x, y, 1, false, scratch);
-                    pager.end_pixel();
-                  }
-                const double dt = nodes::thread_cpu_seconds() - t0;
-                if (pass == 0) continue;
-                const core::CostCounts after = core::cost_counts(scratch.stats.rays, scratch.traversal.stats);
-                const svm::PagerStats& p1 = pager.stats();
-                core::CostSample& s = samples[std::size_t(j) * tx + i];
-                for (int k = 0; k < core::kCostFeatureCount; ++k)
-                  s.counts[std::size_t(k)] = after[std::size_t(k)] - before[std::size_t(k)];
-                s.counts[std::size_t(core::CostFeature::kPageAccess)] = double(p1.accesses - p0.accesses);
-                s.counts[std::size_t(core::CostFeature::kCacheAccess)] =
-                    double(p1.cache_accesses - p0.cache_accesses);
-                s.counts[std::size_t(core::CostFeature::kPageFault)] = double(p1.misses - p0.misses);
-                best[std::size_t(j) * tx + i] = std::min(best[std::size_t(j) * tx + i], dt);
-              }
+          auto pager_counts = [&](core::CostCounts& c) {
+            const svm::PagerStats& p = pager.stats();
+            c[std::size_t(core::CostFeature::kPageAccess)] = double(p.accesses);
+            c[std::size_t(core::CostFeature::kCacheAccess)] = double(p.cache_accesses);
+            c[std::size_t(core::CostFeature::kPageFault)] = double(p.misses);
+          };
+          auto in_pixel = [&](auto&& trace) {
+            pager.begin_pixel();
+            trace();
+            pager.end_pixel();
+          };
+          // Pass 0 takes the faults.
+          samples = sample_tiles(svm::PagedView(pager, grid.info, db.materials), db, width, height, 1, repeat,
+                                 pager_counts, in_pixel);
           for (nodes::NodeId other = 1; other < n; ++other)
             ctx.send(other, nodes::MessageType::kTest, std::uint32_t(0));
         },
         [](nodes::NodeContext&) {});
-    for (std::size_t k = 0; k < samples.size(); ++k) samples[k].seconds = best[k];
     out.insert(out.end(), samples.begin(), samples.end());
   }
   return out;
