@@ -68,6 +68,7 @@ struct RenderOptions {
   double stall_timeout_s = 60;
   double schedule_window_us = 200;
   std::string clock = "cpu";
+  std::string work_requests = "ring";
   // svm
   std::uint32_t page_size = 1024;
   std::string cache;  ///< "" = all free memory, "N" pages or "P%" of the database
@@ -111,8 +112,9 @@ nodes::MachineParams machine_params(const RenderOptions& o) {
   }
   try {
     m.clock = nodes::parse_compute_clock(o.clock);
+    m.work_request_route = nodes::parse_work_request_route(o.work_requests);
   } catch (const std::invalid_argument& e) {
-    throw UsageError(std::string("--clock: ") + e.what());
+    throw UsageError(std::string("--clock/--work-requests: ") + e.what());
   }
   m.network = nodes::make_network(o.network, o.network_scale,
                                   m.clock == nodes::ComputeClock::kModel ? &m.cost_model : nullptr);
@@ -590,6 +592,12 @@ void register_render_command(CLI::App& app) {
       ->check(CLI::IsMember({"hypercube", "ring", "torus"}))
       ->capture_default_str();
   c->add_option("--work-item", o->work_item, "Node modes: pixels per work item, WxH")->capture_default_str();
+  c->add_option("--work-requests", o->work_requests,
+                "replicated, svm: where an idle node asks for work: ring (the paper: to its ring successor, on "
+                "round the ring) or last-grantor (first straight to the node that gave it its last item, then "
+                "the ring: fewer hops)")
+      ->check(CLI::IsMember({"ring", "last-grantor"}))
+      ->capture_default_str();
   c->add_option("--schedule-window", o->schedule_window_us,
                 "Node modes: virtual-time scheduling window in microseconds: a node this far ahead of a waiting "
                 "one hands the CPU over (smaller = closer to a real parallel machine, more thread switches; "

@@ -37,6 +37,11 @@ void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) 
       ->check(CLI::IsMember({"hypercube", "ring", "torus"}))
       ->capture_default_str();
   c.add_option("--work-item", o.work_item, "replicated, svm: pixels per work item, WxH")->capture_default_str();
+  c.add_option("--work-requests", o.work_requests,
+               "replicated, svm: where an idle node asks for work: ring (the paper) or last-grantor (first the "
+               "node that gave it its last item)")
+      ->check(CLI::IsMember({"ring", "last-grantor"}))
+      ->capture_default_str();
   c.add_option("--schedule-window", o.schedule_window_us,
                "Virtual-time scheduling window in microseconds (negative = off, the OS schedules the node threads)")
       ->capture_default_str();
@@ -89,8 +94,9 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
   try {
     m.topology = nodes::parse_topology(o.topology);
     m.clock = nodes::parse_compute_clock(o.clock);
+    m.work_request_route = nodes::parse_work_request_route(o.work_requests);
   } catch (const std::invalid_argument& e) {
-    throw UsageError(std::string("--topology/--clock: ") + e.what());
+    throw UsageError(std::string("--topology/--clock/--work-requests: ") + e.what());
   }
   m.timeout_s = o.timeout_s;
   m.schedule_window_s = o.schedule_window_us * 1e-6;

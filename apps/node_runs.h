@@ -45,6 +45,7 @@ struct NodeRunOptions {
   std::string work_item = "3x3";        ///< replicated, svm: pixels per work item
   double schedule_window_us = 200;      ///< virtual-time scheduling window, microseconds
   std::string clock = "cpu";            ///< cpu or model (nodes::ComputeClock)
+  std::string work_requests = "ring";   ///< ring or last-grantor (nodes::WorkRequestRoute)
   double timeout_s = 0;                 ///< per run, wall seconds; 0 = none
   int repeat = 1;                       ///< runs per point; the lowest T_p is kept
   // svm

@@ -253,6 +253,7 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
   report.network = params_.network.name;
   report.topology = topology_name(params_.topology);
   report.clock = compute_clock_name(params_.clock);
+  report.work_requests = work_request_route_name(params_.work_request_route);
   for (NodeId i = 0; i < n; ++i) {
     report.nodes.push_back(make_report(*state.nodes[i], final_clock[i]));
     const NodeReport& nr = report.nodes.back();
@@ -302,6 +303,7 @@ nlohmann::json RunReport::to_json(bool per_node) const {
   j["network"] = network;
   j["topology"] = topology;
   j["clock"] = clock;
+  j["work_requests"] = work_requests;
   j["parallel_time_s"] = parallel_time_s;
   j["wall_s"] = wall_s;
   std::size_t peak = 0;
@@ -332,6 +334,16 @@ ComputeClock parse_compute_clock(const std::string& text) {
 }
 
 const char* compute_clock_name(ComputeClock c) { return c == ComputeClock::kModel ? "model" : "cpu"; }
+
+WorkRequestRoute parse_work_request_route(const std::string& text) {
+  if (text == "ring") return WorkRequestRoute::kRing;
+  if (text == "last-grantor") return WorkRequestRoute::kLastGrantor;
+  throw std::invalid_argument("work requests go by ring or last-grantor, got '" + text + "'");
+}
+
+const char* work_request_route_name(WorkRequestRoute r) {
+  return r == WorkRequestRoute::kLastGrantor ? "last-grantor" : "ring";
+}
 
 std::size_t parse_bytes(const std::string& text) {
   std::size_t i = 0;

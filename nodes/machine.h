@@ -61,6 +61,8 @@ struct MachineParams {
   /// waiting one hands over. A negative window turns scheduling off.
   std::uint32_t run_permits = 0;
   double schedule_window_s = 200e-6;
+  /// Where idle nodes send work requests (work.h; `--work-requests`).
+  WorkRequestRoute work_request_route = WorkRequestRoute::kRing;
   /// What advances a node's clock while it computes (node.h, "Virtual time").
   ComputeClock clock = ComputeClock::kCpu;
   /// The unit costs the modes' work meters use under ComputeClock::kModel.
@@ -95,6 +97,7 @@ struct RunReport {
   std::string network;         ///< preset name
   std::string topology;
   std::string clock;           ///< "cpu" or "model" (MachineParams::clock)
+  std::string work_requests;   ///< "ring" or "last-grantor" (MachineParams::work_request_route)
 
   /// Counters summed over the nodes (not the host).
   NodeCounters total() const;
@@ -157,6 +160,10 @@ class Machine {
 ComputeClock parse_compute_clock(const std::string& text);
 /// "cpu" or "model".
 const char* compute_clock_name(ComputeClock c);
+/// "ring" or "last-grantor" (--work-requests). Throws std::invalid_argument naming the text.
+WorkRequestRoute parse_work_request_route(const std::string& text);
+/// "ring" or "last-grantor".
+const char* work_request_route_name(WorkRequestRoute r);
 
 /// Parses a byte size: "4MiB", "512KiB", "1GiB", "4M", "1048576" (bytes).
 /// Throws std::invalid_argument with the text on a malformed or zero size.

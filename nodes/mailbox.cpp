@@ -153,6 +153,14 @@ void Mailbox::wait(const std::atomic<bool>& stop, double timeout_s, const std::a
   sleeping_.store(false, std::memory_order_relaxed);
 }
 
+void Mailbox::wait_quietly(const std::atomic<bool>& stop, double timeout_s) {
+  // As in wait(): a wake() after this read changes the counter, so the
+  // futex wait returns at once; `sleeping_` stays false, so try_push never
+  // bumps it.
+  const std::uint32_t w = wake_count_.load(std::memory_order_acquire);
+  if (!nonempty_for_consumer() && !stop.load(std::memory_order_acquire)) futex_wait(wake_count_, w, timeout_s);
+}
+
 void Mailbox::wake() {
   wake_count_.fetch_add(1, std::memory_order_release);
   futex_wake(wake_count_, INT_MAX);

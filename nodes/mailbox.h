@@ -68,6 +68,13 @@ class Mailbox {
   /// passed (0 = no timeout). Spurious returns are allowed; callers loop.
   /// `also`, when given, is one more flag that ends the wait (a run permit).
   void wait(const std::atomic<bool>& stop, double timeout_s = 0, const std::atomic<bool>* also = nullptr);
+  /// Owner thread only: like wait(), but without announcing the sleep, so
+  /// producers never make the wake-up system call for it: it returns after
+  /// `timeout_s` seconds (> 0), on wake(), or at once if a message or `stop`
+  /// is there. For a consumer that need not react at once to each message
+  /// (the host): a busy producer then runs on instead of handing its core
+  /// to the consumer per message.
+  void wait_quietly(const std::atomic<bool>& stop, double timeout_s);
   /// Any thread: wakes the owner if it waits. To stop a run, set the stop
   /// flag (release or stronger) first, then call wake().
   void wake();

@@ -60,6 +60,7 @@ NodeContext::~NodeContext() {
 std::uint32_t NodeContext::node_count() const { return machine_->params.nodes; }
 const Topology& NodeContext::topology() const { return machine_->topology; }
 const NetworkModel& NodeContext::network() const { return machine_->params.network; }
+WorkRequestRoute NodeContext::work_request_route() const { return machine_->params.work_request_route; }
 
 void NodeContext::sync_compute() {
   if (id_ == kHost) return;  // the host is outside the emulated machine: its bookkeeping takes no virtual time
@@ -159,8 +160,16 @@ void NodeContext::wait_for_mail(double timeout_s) {
   const bool generic = wait_reason_.load(std::memory_order_relaxed) == std::uint8_t(WaitReason::kNone);
   const bool for_permit = want_permit_ && id_ != kHost && !machine_->scheduler->granted_flag(id_).load(std::memory_order_relaxed);
   if (generic) note_wait(for_permit ? WaitReason::kPermit : WaitReason::kMail);
-  mailbox_->wait(machine_->stop, timeout_s,
-                 id_ == kHost ? nullptr : &machine_->scheduler->granted_flag(id_));
+  if (id_ == kHost) {
+    // The host waits quietly: senders do not wake it per message (a pixel
+    // block every few microseconds would take a core from a node each
+    // time). It looks again after a nap that doubles while nothing comes,
+    // from kHostNapMinS up to kHostNapMaxS.
+    mailbox_->wait_quietly(machine_->stop, timeout_s > 0 ? std::min(timeout_s, host_nap_s_) : host_nap_s_);
+    host_nap_s_ = mailbox_->has_message() ? kHostNapMinS : std::min(2 * host_nap_s_, kHostNapMaxS);
+  } else {
+    mailbox_->wait(machine_->stop, timeout_s, &machine_->scheduler->granted_flag(id_));
+  }
   if (generic) note_wait(WaitReason::kNone);
   end_messaging();
 }

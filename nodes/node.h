@@ -45,6 +45,12 @@
 
 namespace raynode::nodes {
 
+/// Where an idle node sends a work request (work.h): kRing, the paper's
+/// rule, to its ring successor; kLastGrantor first straight to the node that
+/// granted its last work item (likely still busy), and on to the ring from
+/// the requester's successor if that node has none left.
+enum class WorkRequestRoute : std::uint8_t { kRing, kLastGrantor };
+
 /// Thrown inside node code when the run is being stopped because another
 /// participant failed (or the watchdog fired); Machine::run swallows it.
 class RunAborted : public std::runtime_error {
@@ -116,6 +122,8 @@ class NodeContext {
   std::uint32_t node_count() const;
   const Topology& topology() const;
   const NetworkModel& network() const;
+  /// Where an idle node sends its next work request (MachineParams).
+  WorkRequestRoute work_request_route() const;
   Arena& arena() { return arena_; }
   Mailbox& mailbox() { return *mailbox_; }
   const NodeCounters& counters() const { return counters_; }
@@ -255,6 +263,9 @@ class NodeContext {
   std::atomic<std::int64_t> wait_a_{-1}, wait_b_{-1};
   std::atomic<double> clock_seen_{0};  ///< clock_ as of the last wait, for the watchdog
   bool want_permit_ = false;           ///< the last try_run/yield_point was refused
+  /// The host's wait between looks at its mailbox (wait_for_mail).
+  static constexpr double kHostNapMinS = 100e-6, kHostNapMaxS = 2e-3;
+  double host_nap_s_ = kHostNapMinS;
   std::atomic<std::size_t> backlog_size_{0};  ///< messages parked by a blocked send, for the watchdog
   double clock_ = 0;
   double cpu_mark_ = 0;  ///< CPU seconds (kCpu) or metered seconds (kModel) at the last sample

@@ -121,7 +121,13 @@ class Farm {
           ++stats.grants_given;
         } else {
           ++r.hops;
-          ctx_.send(ctx_.topology().ring_next(ctx_.id()), MessageType::kWorkRequest, r, {}, at);
+          // On round the ring, past the origin, back to the origin when the
+          // next node would be where the walk began.
+          const Topology& topo = ctx_.topology();
+          NodeId next = topo.ring_next(ctx_.id());
+          if (next == r.origin) next = topo.ring_next(r.origin);
+          if (next == r.start) next = r.origin;
+          ctx_.send(next, MessageType::kWorkRequest, r, {}, at);
           ++stats.requests_forwarded;
         }
         return false;
@@ -131,6 +137,7 @@ class Farm {
                                                            node_name(ctx_.id())));
         grant = m.as<WorkGrantMsg>().item;
         have_grant = true;
+        last_grantor = m.source();
         return false;
       default:
         if (other_ && other_(ctx_, m)) return false;
@@ -143,6 +150,7 @@ class Farm {
   NodeContext& ctx_;
   const OtherMessageHandler& other_;
   WorkStats stats;
+  NodeId last_grantor = kHost;  ///< the node that granted our last item (kHost: none yet)
 };
 
 }  // namespace
@@ -183,7 +191,10 @@ WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_
       continue;
     }
     if (!request_out) {
-      ctx.send(ctx.topology().ring_next(ctx.id()), MessageType::kWorkRequest, WorkRequestMsg{ctx.id(), 1});
+      NodeId first = ctx.topology().ring_next(ctx.id());
+      if (ctx.work_request_route() == WorkRequestRoute::kLastGrantor && farm.last_grantor != kHost)
+        first = farm.last_grantor;
+      ctx.send(first, MessageType::kWorkRequest, WorkRequestMsg{ctx.id(), 1, std::uint16_t(first)});
       ++farm.stats.requests_sent;
       request_out = true;
     }

@@ -6,7 +6,11 @@
 // grants the requester one work item from the far end of its submap; an
 // idle node forwards the request to its ring successor; a request that
 // comes back to its origin unsatisfied means no node has work left to give,
-// so the origin's work is over. Finished pixels go to the host, which
+// so the origin's work is over. With WorkRequestRoute::kLastGrantor a
+// request starts its walk at the node that granted the requester's last
+// item (likely still busy) instead of at the requester's successor; either
+// way it passes every other node once, skipping its origin, before it
+// returns. Finished pixels go to the host, which
 // assembles the frame and, once every node has reported done, shuts the
 // machine down.
 //
@@ -23,6 +27,7 @@
 #include <span>
 #include <vector>
 
+#include "nodes/machine.h"
 #include "nodes/node.h"
 
 namespace raynode::nodes {
@@ -66,8 +71,10 @@ class WorkPool {
 /// Messages of the protocol (trivially copyable; wire size = sizeof).
 struct WorkRequestMsg {
   NodeId origin;
-  std::uint32_t hops;  ///< ring hops travelled so far
+  std::uint16_t hops;       ///< hops travelled so far
+  std::uint16_t start = 0;  ///< the node where its walk round the ring began
 };
+static_assert(kMaxNodes <= 0xffff, "WorkRequestMsg holds node ids and hops in 16 bits");
 struct WorkGrantMsg {
   Rect item;
 };
