@@ -1,6 +1,7 @@
 #include <doctest/doctest.h>
 
 #include <atomic>
+#include <chrono>
 #include <cstring>
 #include <thread>
 #include <vector>
@@ -131,4 +132,35 @@ TEST_CASE("mailbox: a waiting consumer is woken by a late message and by a stop 
   while (!stop.load()) box.wait(stop);  // would hang if the wake-up were lost
   stopper.join();
   CHECK_FALSE(box.try_pop(h, buf.data()));
+}
+
+TEST_CASE("mailbox: a quiet wait returns at once on a message or a stop, on wake(), and by its timeout") {
+  Arena arena(0, 1 << 20);
+  Mailbox box(arena, 8, 32);
+  std::atomic<bool> stop{false};
+  std::vector<std::byte> buf(32);
+  MessageHeader h;
+  using clock = std::chrono::steady_clock;
+  auto seconds_of = [&](auto&& f) {
+    const auto t0 = clock::now();
+    f();
+    return std::chrono::duration<double>(clock::now() - t0).count();
+  };
+  // A message already there: no 30 s nap.
+  REQUIRE(push_item(box, Item{2, 1, check_of(2, 1)}));
+  CHECK(seconds_of([&] { box.wait_quietly(stop, 30.0); }) < 10.0);
+  REQUIRE(box.try_pop(h, buf.data()));
+  // Empty: the timeout ends it (a generous bound: the point is that it ends).
+  CHECK(seconds_of([&] { box.wait_quietly(stop, 0.01); }) < 10.0);
+  // wake() (how a run is stopped) ends a 30 s quiet wait.
+  std::thread stopper([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    stop.store(true);
+    box.wake();
+  });
+  CHECK(seconds_of([&] {
+          while (!stop.load()) box.wait_quietly(stop, 30.0);
+        }) < 10.0);
+  stopper.join();
+  CHECK(seconds_of([&] { box.wait_quietly(stop, 30.0); }) < 10.0);  // stop already set
 }
