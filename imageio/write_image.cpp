@@ -1,6 +1,6 @@
 #include "imageio/write_image.h"
 
-#include <OpenImageIO/imageio.h>
+#include <dlfcn.h>
 #include <fmt/core.h>
 #include <unistd.h>
 
@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
+#include <mutex>
 #include <stdexcept>
 #include <system_error>
 #include <vector>
@@ -23,6 +24,45 @@ std::string lower_extension(const std::string& path) {
   return ext;
 }
 
+/// The OpenImageIO module's entry points (oiio_module.cpp), loaded once.
+struct OiioModule {
+  int (*can_write)(const char* path) = nullptr;
+  int (*write)(const char* format_path, const char* path, int width, int height, int channels, int is_float,
+               const void* pixels, char* error, unsigned error_size) = nullptr;
+};
+
+/// Loads the module from beside the executable, else from the build tree
+/// it was built in (RAYNODE_OIIO_MODULE_PATH). Throws std::runtime_error
+/// naming the places tried and dlopen's message.
+const OiioModule& oiio() {
+  static OiioModule module;
+  static std::string failure;
+  static std::once_flag once;
+  std::call_once(once, [] {
+    namespace fs = std::filesystem;
+    std::vector<std::string> places;
+    std::error_code ec;
+    const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+    if (!ec) places.push_back((exe.parent_path() / RAYNODE_OIIO_MODULE_NAME).string());
+    places.push_back(RAYNODE_OIIO_MODULE_PATH);
+    std::string errors;
+    for (const std::string& place : places) {
+      void* handle = ::dlopen(place.c_str(), RTLD_NOW | RTLD_LOCAL);
+      if (!handle) {
+        errors += fmt::format("\n  {}: {}", place, ::dlerror());
+        continue;
+      }
+      module.can_write = reinterpret_cast<decltype(module.can_write)>(::dlsym(handle, "raynode_oiio_can_write"));
+      module.write = reinterpret_cast<decltype(module.write)>(::dlsym(handle, "raynode_oiio_write"));
+      if (module.can_write && module.write) return;  // kept loaded for the process's life
+      errors += fmt::format("\n  {}: not raynode's OpenImageIO module (entry points missing)", place);
+    }
+    failure = "cannot load the image writer (raynode's OpenImageIO module); tried:" + errors;
+  });
+  if (!module.write) throw std::runtime_error(failure);
+  return module;
+}
+
 }  // namespace
 
 bool is_float_format(const std::string& path) {
@@ -30,11 +70,7 @@ bool is_float_format(const std::string& path) {
   return ext == ".exr" || ext == ".hdr";
 }
 
-bool can_write_format(const std::string& path) {
-  auto out = OIIO::ImageOutput::create(path);
-  if (!out) OIIO::geterror();  // clear the pending message
-  return bool(out);
-}
+bool can_write_format(const std::string& path) { return oiio().can_write(path.c_str()) != 0; }
 
 void write_image(const std::string& path, const core::Image& image) {
   namespace fs = std::filesystem;
@@ -42,23 +78,23 @@ void write_image(const std::string& path, const core::Image& image) {
       image.pixels.size() != std::size_t(image.width) * image.height * image.channels)
     throw std::runtime_error(fmt::format("{}: image has inconsistent size {}x{}x{} ({} floats)", path, image.width,
                                          image.height, image.channels, image.pixels.size()));
-  // The plugin is chosen from the final name; the temporary keeps the extension too.
-  auto out = OIIO::ImageOutput::create(path);
-  if (!out) throw std::runtime_error(fmt::format("{}: cannot write this format: {}", path, OIIO::geterror()));
+  const OiioModule& io = oiio();
+  // The format is chosen from the final name; the temporary keeps the extension too.
+  if (!io.can_write(path.c_str())) throw std::runtime_error(fmt::format("{}: cannot write this format", path));
   const fs::path final_path(path);
   const fs::path tmp = final_path.parent_path() /
                        fmt::format(".{}.tmp{}{}", final_path.stem().string(), ::getpid(), final_path.extension().string());
   const bool as_float = is_float_format(path);
-  OIIO::ImageSpec spec(image.width, image.height, image.channels, as_float ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::UINT8);
   auto fail = [&](const std::string& what) {
     std::error_code ec;
     fs::remove(tmp, ec);
     throw std::runtime_error(fmt::format("{}: {}", path, what));
   };
-  if (!out->open(tmp.string(), spec)) fail(out->geterror());
-  bool ok;
+  char error[512] = "";
+  int ok;
   if (as_float) {
-    ok = out->write_image(OIIO::TypeDesc::FLOAT, image.pixels.data());
+    ok = io.write(path.c_str(), tmp.string().c_str(), image.width, image.height, image.channels, 1,
+                  image.pixels.data(), error, sizeof error);
   } else {
     std::vector<std::uint8_t> bytes(image.pixels.size());
     for (std::size_t i = 0; i < bytes.size(); ++i) {
@@ -66,15 +102,10 @@ void write_image(const std::string& path, const core::Image& image) {
       v = std::isnan(v) ? 0.0f : std::clamp(v, 0.0f, 1.0f);
       bytes[i] = static_cast<std::uint8_t>(std::lround(v * 255.0f));
     }
-    ok = out->write_image(OIIO::TypeDesc::UINT8, bytes.data());
+    ok = io.write(path.c_str(), tmp.string().c_str(), image.width, image.height, image.channels, 0, bytes.data(),
+                  error, sizeof error);
   }
-  if (!ok) {
-    const std::string err = out->geterror();
-    out->close();
-    fail(err);
-  }
-  if (!out->close()) fail(out->geterror());
-  out.reset();
+  if (!ok) fail(error);
   std::error_code ec;
   fs::rename(tmp, final_path, ec);
   if (ec) fail("cannot rename the temporary file into place: " + ec.message());
