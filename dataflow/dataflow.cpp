@@ -119,6 +119,12 @@ struct NodeState {
   }
 };
 
+/// Incoming messages a node parks while a send to the host waits for room
+/// (NodeContext::set_park_limit): the arena room node_budget reserves for
+/// them. A node's only blocking sends go to the host, which never waits for
+/// a node, so a node that stops parking cannot deadlock anyone.
+constexpr std::size_t kParkLimit = 256;
+
 /// Bytes a node needs besides its region database (checked before the run).
 struct NodeBudget {
   std::size_t stack_slots, inbox_slots, contribution_slots, first_hit_slots;
@@ -137,8 +143,9 @@ NodeBudget node_budget(const nodes::MachineParams& m, std::size_t lights, int ma
             b.contribution_slots * sizeof(Contribution) + b.first_hit_slots * sizeof(FirstHitRecord) +
             tree_nodes * sizeof(KdNode) +
             std::size_t(regions) * sizeof(ScreenRect) + lights * sizeof(core::Light) + sizeof(core::ShadingScratch) +
-            // room for messages parked while a send to the host waits (node.h)
-            std::min<std::size_t>(m.mailbox_capacity, 256) * (m.max_payload + 96);
+            // room for messages parked while a send to the host waits
+            // (node.h; bounded by set_park_limit, kParkLimit)
+            std::min<std::size_t>(m.mailbox_capacity, kParkLimit) * (m.max_payload + 96);
   return b;
 }
 
@@ -649,6 +656,7 @@ DataflowResult render_dataflow(const core::Database& db, const core::Grid& grid,
 
   auto node_main = [&](NodeContext& ctx) {
     ctx.set_work_meter(&NodeState::work_seconds, states[ctx.id()].get());
+    ctx.set_park_limit(std::min<std::size_t>(m.mailbox_capacity, kParkLimit));
     NodeTracer(ctx, *states[ctx.id()], want_first).run();
   };
 

@@ -126,7 +126,7 @@ struct NodeFlowStats {
 struct HostFlowStats {
   std::uint64_t spilled = 0;            ///< rays received from nodes whose destination was full
   std::uint64_t forwarded = 0;          ///< of those, forwarded to their destination
-  std::uint64_t forward_retries = 0;    ///< forwards that found the destination full again
+  std::uint64_t forward_retries = 0;    ///< forward attempts that found the destination's mailbox full (one per destination per pass of the host's loop)
   std::uint64_t store_peak = 0;         ///< most rays held at once
   std::uint64_t contributions = 0;      ///< colour terms received
   std::uint64_t first_hits = 0;         ///< AOV records received

@@ -248,7 +248,7 @@ void NodeContext::send(NodeId dest, MessageType type, std::span<const std::span<
   } clear{this, generic};
   while (true) {
     ++counters_.full_mailbox_retries;
-    while (mailbox_->try_pop(h, receive_buffer_.data())) {
+    while (backlog_.size() < park_limit_ && mailbox_->try_pop(h, receive_buffer_.data())) {
       backlog_.push_back(Parked{h, std::pmr::vector<std::byte>(receive_buffer_.data(),
                                                                receive_buffer_.data() + h.payload_bytes, &arena_)});
       counters_.backlog_peak = std::max<std::uint64_t>(counters_.backlog_peak, backlog_.size());

@@ -28,6 +28,7 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <cstddef>
 #include <deque>
 #include <memory>
 #include <memory_resource>
@@ -179,14 +180,22 @@ class NodeContext {
   /// the others back (scheduler.h). The caller must keep serving its mail
   /// while it waits.
   void await_reply();
+  /// Bounds how many incoming messages a blocked send() parks in the arena
+  /// (default: no bound). Only for a node whose blocking sends all go to
+  /// a consumer that never blocks on it (dataflow: only to the host): a
+  /// node that stops parking leaves its mailbox full, so its senders must
+  /// not wait for it.
+  void set_park_limit(std::size_t messages) { park_limit_ = messages; }
 
   // --- Sending ------------------------------------------------------------
   /// Sends `parts` (concatenated) to `dest` as a message of `type`. Departs
   /// at now(), or at `depart` when >= 0 (interrupt-level replies). Blocks
   /// while the destination mailbox is full, parking this node's own incoming
   /// messages meanwhile so that two nodes sending to each other cannot
-  /// deadlock. Throws RunAborted, std::length_error (payload too big),
-  /// std::logic_error (dest out of range or finished).
+  /// deadlock (at most set_park_limit() of them; the rest stay in the
+  /// mailbox). Throws RunAborted, std::length_error (payload too big),
+  /// std::logic_error (dest out of range or finished), ArenaExhausted when
+  /// the parked messages outgrow the arena.
   void send(NodeId dest, MessageType type, std::span<const std::span<const std::byte>> parts, double depart = -1,
             std::uint32_t wire_bytes = 0);
   /// As send, but returns false (nothing sent, nothing counted) when the
@@ -257,6 +266,7 @@ class NodeContext {
     bool counted = false;  ///< already in the received counters (deferred after a poll)
   };
   std::pmr::deque<Parked> backlog_;
+  std::size_t park_limit_ = SIZE_MAX;  ///< set_park_limit()
   std::pmr::deque<Parked> deferred_;  ///< set aside by defer(), not seen by poll()
   std::pmr::vector<std::byte> backlog_current_;
   std::atomic<std::uint8_t> wait_reason_{0};

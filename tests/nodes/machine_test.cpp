@@ -3,6 +3,7 @@
 #include <atomic>
 #include <chrono>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "nodes/machine.h"
@@ -185,6 +186,53 @@ TEST_CASE("machine: two nodes flooding each other's small mailboxes do not deadl
       });
   CHECK(got[0] == kCount);
   CHECK(got[1] == kCount);
+}
+
+namespace {
+
+/// Node 0 blocks sending kToHost messages to a host that starts draining
+/// only after a pause, while node 1 floods node 0 (try_send, never
+/// blocking). Returns node 0's parking peak; checks every message arrives.
+std::uint64_t park_peak(std::size_t limit) {
+  MachineParams p;
+  p.nodes = 2;
+  p.mailbox_capacity = 4;
+  p.host_mailbox_capacity = 2;
+  p.timeout_s = 60;
+  Machine machine(p);
+  constexpr std::uint32_t kToHost = 40, kFlood = 300;
+  std::uint32_t received = 0;
+  const RunReport report = machine.run(
+      [&](NodeContext& ctx) {
+        if (ctx.id() == 0) {
+          if (limit) ctx.set_park_limit(limit);
+          for (std::uint32_t i = 0; i < kToHost; ++i) ctx.send(kHost, MessageType::kTest, Token{i, 0});
+          std::uint32_t expect = 0;
+          while (expect < kFlood && ctx.receive(WaitKind::kIdle).as<Token>().laps == expect) ++expect;
+          received = expect;
+        } else {
+          for (std::uint32_t i = 0; i < kFlood; ++i)
+            while (!ctx.try_send(0, MessageType::kTest, Token{i, 0})) std::this_thread::yield();
+        }
+        ctx.send(kHost, MessageType::kNodeDone, Token{});
+        ctx.receive(WaitKind::kIdle);  // shutdown
+      },
+      [&](NodeContext& host) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));  // node 0's sends wait meanwhile
+        std::uint32_t done = 0;
+        while (done < 2)
+          if (host.receive(WaitKind::kIdle).type() == MessageType::kNodeDone) ++done;
+        for (NodeId n = 0; n < 2; ++n) host.send(n, MessageType::kShutdown, Token{});
+      });
+  CHECK(received == kFlood);  // in order, none lost
+  return report.nodes[0].counters.backlog_peak;
+}
+
+}  // namespace
+
+TEST_CASE("machine: a blocked send parks at most set_park_limit() messages, and none is lost") {
+  CHECK(park_peak(3) <= 3);
+  CHECK(park_peak(0) > 3);  // control: unbounded, it parks what the flood brings
 }
 
 TEST_CASE("machine: bad parameters and byte sizes are refused with a message") {
