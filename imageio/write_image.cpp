@@ -79,33 +79,31 @@ void write_image(const std::string& path, const core::Image& image) {
     throw std::runtime_error(fmt::format("{}: image has inconsistent size {}x{}x{} ({} floats)", path, image.width,
                                          image.height, image.channels, image.pixels.size()));
   const OiioModule& io = oiio();
-  // The format is chosen from the final name; the temporary keeps the extension too.
-  if (!io.can_write(path.c_str())) throw std::runtime_error(fmt::format("{}: cannot write this format", path));
+  // The module picks the format from the final name (and reports an
+  // unknown one); the temporary keeps the extension too.
   const fs::path final_path(path);
   const fs::path tmp = final_path.parent_path() /
                        fmt::format(".{}.tmp{}{}", final_path.stem().string(), ::getpid(), final_path.extension().string());
   const bool as_float = is_float_format(path);
-  auto fail = [&](const std::string& what) {
-    std::error_code ec;
-    fs::remove(tmp, ec);
-    throw std::runtime_error(fmt::format("{}: {}", path, what));
-  };
-  char error[512] = "";
-  int ok;
-  if (as_float) {
-    ok = io.write(path.c_str(), tmp.string().c_str(), image.width, image.height, image.channels, 1,
-                  image.pixels.data(), error, sizeof error);
-  } else {
-    std::vector<std::uint8_t> bytes(image.pixels.size());
+  std::vector<std::uint8_t> bytes;
+  if (!as_float) {
+    bytes.resize(image.pixels.size());
     for (std::size_t i = 0; i < bytes.size(); ++i) {
       float v = image.pixels[i];
       v = std::isnan(v) ? 0.0f : std::clamp(v, 0.0f, 1.0f);
       bytes[i] = static_cast<std::uint8_t>(std::lround(v * 255.0f));
     }
-    ok = io.write(path.c_str(), tmp.string().c_str(), image.width, image.height, image.channels, 0, bytes.data(),
-                  error, sizeof error);
   }
-  if (!ok) fail(error);
+  auto fail = [&](const std::string& what) {
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    throw std::runtime_error(fmt::format("{}: {}", path, what));
+  };
+  const void* pixels = as_float ? static_cast<const void*>(image.pixels.data()) : bytes.data();
+  char error[512] = "";
+  if (!io.write(path.c_str(), tmp.string().c_str(), image.width, image.height, image.channels, as_float ? 1 : 0,
+                pixels, error, sizeof error))
+    fail(error);
   std::error_code ec;
   fs::rename(tmp, final_path, ec);
   if (ec) fail("cannot rename the temporary file into place: " + ec.message());
