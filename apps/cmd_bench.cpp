@@ -27,6 +27,7 @@ struct BenchOptions {
   int width = 512, height = 512;
   int repeat = 3;
   float density = core::GridParams{}.density;
+  bool skip_empty = core::GridParams{}.skip_empty;
   bool json = false;
 };
 
@@ -88,6 +89,7 @@ void run_bench(const BenchOptions& o) {
     const core::Database db = core::make_database(scene);
     core::GridParams gp;
     gp.density = o.density;
+    gp.skip_empty = o.skip_empty;
     core::Grid grid;
     const double build_s = best_seconds(1, [&] { grid = core::build_grid(db, gp); });
     const core::EmbreeScene embree(db);
@@ -120,6 +122,7 @@ void run_bench(const BenchOptions& o) {
                         {"grid_resolution", {grid.info.res[0], grid.info.res[1], grid.info.res[2]}},
                         {"grid_references", grid.references()},
                         {"grid_build_s", build_s},
+                        {"skip_empty", o.skip_empty},
                         {"rays", std::uint64_t(n)},
                         {"closest_rays", rs.closest.size()},
                         {"shadow_rays", rs.shadow.size()},
@@ -157,6 +160,7 @@ void register_bench_command(CLI::App& app) {
   c->add_option("--height", o->height, "Image height for primary rays")->check(CLI::Range(1, 8192));
   c->add_option("--repeat", o->repeat, "Runs per accelerator; the best is kept")->check(CLI::Range(1, 100));
   c->add_option("--grid-density", o->density, "Grid cells per primitive")->check(CLI::Range(0.01f, 1000.0f));
+  add_skip_empty_option(*c, o->skip_empty);
   c->add_flag("--json", o->json, "Print JSON");
   c->callback([o] { run_bench(*o); });
 }

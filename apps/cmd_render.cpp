@@ -50,6 +50,7 @@ struct RenderOptions {
   std::string output = "render.png";
   std::string mode = "sequential";
   std::string accel = "grid";
+  bool skip_empty = core::GridParams{}.skip_empty;
   int nodes = 1;
   int width = 0, height = 0;
   int spp = 1;
@@ -242,11 +243,13 @@ struct Accelerator {
   double build_s = 0;                         ///< wall seconds to build it
 };
 
-Accelerator build_accelerator(const std::string& accel, const core::Database& db) {
+Accelerator build_accelerator(const std::string& accel, bool skip_empty, const core::Database& db) {
   Accelerator a;
   const auto t0 = std::chrono::steady_clock::now();
+  core::GridParams gp;
+  gp.skip_empty = skip_empty;
   if (accel == "embree") a.embree = std::make_unique<core::EmbreeScene>(db);
-  else a.grid = core::build_grid(db);
+  else a.grid = core::build_grid(db, gp);
   a.build_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return a;
 }
@@ -368,7 +371,7 @@ void run_render(const RenderOptions& o) {
                                                       : fmt::format(" ({} degenerate polygon{} dropped)", dropped,
                                                                     dropped == 1 ? "" : "s")));
   }
-  const Accelerator accel = build_accelerator(o.accel, db);
+  const Accelerator accel = build_accelerator(o.accel, o.skip_empty, db);
 
   const core::View cam_view = [&] {
     try {
@@ -466,7 +469,10 @@ void run_render(const RenderOptions& o) {
           {"cones", dc.cones}}},
         {"output", o.output},
     };
-    if (accel.grid) j["grid_resolution"] = {accel.grid->info.res[0], accel.grid->info.res[1], accel.grid->info.res[2]};
+    if (accel.grid) {
+      j["grid_resolution"] = {accel.grid->info.res[0], accel.grid->info.res[1], accel.grid->info.res[2]};
+      j["skip_empty"] = o.skip_empty;
+    }
     for (const auto& [name, path] : aov_files) j["aov_outputs"][name] = path;
     if (!extras.nodes.is_null()) {
       // "nodes" stays the count; the machine's totals and each node's counters beside it.
@@ -530,6 +536,7 @@ void register_render_command(CLI::App& app) {
                 "differ only where the two pick different primitives)")
       ->check(CLI::IsMember({"grid", "embree"}))
       ->capture_default_str();
+  add_skip_empty_option(*c, o->skip_empty);
   c->add_option("--width", o->width, "Image width in pixels (default: the scene's view)")->check(CLI::Range(1, 16384));
   c->add_option("--height", o->height, "Image height in pixels (default: the scene's view)")
       ->check(CLI::Range(1, 16384));

@@ -22,6 +22,10 @@ class UsageError : public std::runtime_error {
 /// Adds the SCENE positional and --tessellate to a subcommand.
 void add_scene_options(CLI::App& cmd, core::SceneSource& source);
 
+/// Adds --skip-empty on|off (core::GridParams::skip_empty) to a subcommand;
+/// `skip_empty` must outlive the parse.
+void add_skip_empty_option(CLI::App& cmd, bool& skip_empty);
+
 void register_scene_commands(CLI::App& app);
 void register_validate_command(CLI::App& app);
 void register_bench_command(CLI::App& app);

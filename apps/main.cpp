@@ -21,6 +21,14 @@ void add_scene_options(CLI::App& cmd, core::SceneSource& source) {
       ->check(CLI::Range(0, 1000));
 }
 
+void add_skip_empty_option(CLI::App& cmd, bool& skip_empty) {
+  cmd.add_option_function<std::string>(
+         "--skip-empty", [&skip_empty](const std::string& v) { skip_empty = v == "on"; },
+         "Grid walk: on = jump over empty space (Chebyshev distances kept in empty cells); off = step cell by "
+         "cell, as the paper's tracer (same hits, more cells visited) [default: on]")
+      ->check(CLI::IsMember({"on", "off"}));
+}
+
 }  // namespace raynode::apps
 
 int main(int argc, char** argv) {

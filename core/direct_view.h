@@ -22,16 +22,18 @@ struct DatabaseArrays {
   std::span<const Material> materials;
   std::span<const std::uint32_t> cell_start;       ///< cell_count()+1 offsets
   std::span<const std::uint32_t> cell_primitives;  ///< primitive ids
+  std::span<const std::uint8_t> empty_distance;    ///< cell_count() empty-space distances (Grid::empty_distance)
   GridInfo grid;
 
   /// The arrays of a host database and grid.
   static DatabaseArrays of(const Database& db, const Grid& grid) {
-    return {db.primitives, db.vertex_normals, db.materials, grid.cell_start, grid.cell_primitives, grid.info};
+    return {db.primitives, db.vertex_normals, db.materials, grid.cell_start, grid.cell_primitives,
+            grid.empty_distance, grid.info};
   }
   /// Bytes of all arrays (what a node needs to hold a full copy).
   std::size_t bytes() const {
     return primitives.size_bytes() + vertex_normals.size_bytes() + materials.size_bytes() + cell_start.size_bytes() +
-           cell_primitives.size_bytes();
+           cell_primitives.size_bytes() + empty_distance.size_bytes();
   }
 };
 
@@ -42,9 +44,11 @@ class DirectView {
 
   const GridInfo& grid_info() const { return a_.grid; }
   template <class F>
-  void for_each_in_cell(std::uint32_t cell, F&& f) const {
+  std::uint32_t for_each_in_cell(std::uint32_t cell, F&& f) const {
+    if (const std::uint32_t d = a_.empty_distance[cell]) return d;
     const std::uint32_t* p = a_.cell_primitives.data();
     for (std::uint32_t i = a_.cell_start[cell], e = a_.cell_start[cell + 1]; i < e; ++i) f(p[i]);
+    return 0;
   }
   const Primitive& primitive(std::uint32_t id) const { return a_.primitives[id]; }
   const Material& material(std::uint32_t id) const { return a_.materials[id]; }

@@ -214,7 +214,49 @@ Grid build_grid(const Database& db, const GridParams& params) {
   grid.cell_primitives.resize(pairs.size());
   std::vector<std::uint32_t> fill(grid.cell_start.begin(), grid.cell_start.end() - 1);
   for (const auto& pr : pairs) grid.cell_primitives[fill[pr.first]++] = pr.second;
+  compute_empty_distance(grid, params.skip_empty);
   return grid;
+}
+
+void compute_empty_distance(Grid& grid, bool skip_empty) {
+  const GridInfo& info = grid.info;
+  const std::uint32_t ncells = info.cell_count();
+  std::vector<std::uint8_t>& d = grid.empty_distance;
+  d.assign(ncells, 0);
+  for (std::uint32_t c = 0; c < ncells; ++c)
+    if (grid.cell_start[c] == grid.cell_start[c + 1]) d[c] = skip_empty ? std::uint8_t(kMaxEmptyDistance) : 1;
+  if (!skip_empty) return;
+  // Two raster scans, forward then backward, each taking the minimum over
+  // the 13 neighbours already scanned plus one: exact for the chessboard
+  // metric. Cells beyond the grid are empty, so they never lower a distance.
+  const int rx = info.res[0], ry = info.res[1], rz = info.res[2];
+  for (int pass = 0; pass < 2; ++pass) {
+    const int s = pass == 0 ? 1 : -1;
+    for (int zi = 0; zi < rz; ++zi) {
+      const int z = s > 0 ? zi : rz - 1 - zi;
+      for (int yi = 0; yi < ry; ++yi) {
+        const int y = s > 0 ? yi : ry - 1 - yi;
+        for (int xi = 0; xi < rx; ++xi) {
+          const int x = s > 0 ? xi : rx - 1 - xi;
+          const std::uint32_t c = info.cell_index(x, y, z);
+          if (d[c] <= 1) continue;  // non-empty, or next to a non-empty cell already
+          int best = d[c];
+          // The 13 neighbours before (x, y, z) in this pass's order: the
+          // previous plane (dz = -s, all 9), the previous row (dy = -s, dz = 0,
+          // all 3), the previous cell (dx = -s).
+          for (int dz = -1; dz <= 0; ++dz)
+            for (int dy = -1; dy <= 1; ++dy)
+              for (int dx = -1; dx <= 1; ++dx) {
+                if (dz == 0 && (dy > 0 || (dy == 0 && dx >= 0))) continue;
+                const int nx = x + s * dx, ny = y + s * dy, nz = z + s * dz;
+                if (nx < 0 || ny < 0 || nz < 0 || nx >= rx || ny >= ry || nz >= rz) continue;
+                best = std::min(best, d[info.cell_index(nx, ny, nz)] + 1);
+              }
+          d[c] = std::uint8_t(best);
+        }
+      }
+    }
+  }
 }
 
 }  // namespace raynode::core

@@ -6,8 +6,10 @@
 //
 // A database view V provides (all const, owner thread only):
 //   const GridInfo& grid_info() const;
-//   template <class F> void for_each_in_cell(std::uint32_t cell, F&& f) const;
-//       // calls f(std::uint32_t primitive_id) for each listed primitive
+//   template <class F> std::uint32_t for_each_in_cell(std::uint32_t cell, F&& f) const;
+//       // calls f(std::uint32_t primitive_id) for each listed primitive and
+//       // returns the cell's empty-space distance (Grid::empty_distance:
+//       // 0 if it lists primitives; returning 1 for an empty cell is safe)
 //   const Primitive& primitive(std::uint32_t id) const;
 // and, for shading (shade.h), per-object data beside the primitives:
 //   const Material& material(std::uint32_t id) const;
@@ -171,11 +173,16 @@ inline bool intersect_primitive(const Primitive& p, std::uint32_t id, const Ray&
   });
 }
 
-/// Walks the grid cells pierced by `ray` in order, calling visit(cell, t_exit)
-/// for each; stops when visit returns true. t_exit is the ray parameter where
-/// the ray leaves the cell. Rays with zero direction components, and rays
-/// starting inside, outside or on the boundary of the grid are handled.
-/// Precondition: is_valid_ray(ray).
+/// What a walk's visit returns to stop the walk.
+inline constexpr std::uint32_t kStopWalk = ~std::uint32_t(0);
+
+/// Walks the grid cells pierced by `ray` in order, calling
+/// visit(cell, t_exit) for each; t_exit is the ray parameter where the ray
+/// leaves the cell. visit returns kStopWalk to stop the walk, else the
+/// cell's empty-space distance d (0 for a cell that lists primitives; see
+/// Grid::empty_distance; 1 is always safe for an empty cell). Rays with
+/// zero direction components, and rays starting inside, outside or on the
+/// boundary of the grid are handled. Precondition: is_valid_ray(ray).
 ///
 /// 3D-DDA (Amanatides & Woo 1987). The parameter of the next cell boundary
 /// on each axis is recomputed from the boundary's grid index, never
@@ -183,6 +190,15 @@ inline bool intersect_primitive(const Primitive& p, std::uint32_t id, const Ray&
 /// same cells for the same ray. Ties between axes go to the lowest of
 /// (x < y ? (x < z ? x : z) : (y < z ? y : z)); the cell index is kept
 /// linear (one add per step).
+///
+/// Empty-space jumps: when a visited cell reports d >= 2, the cube of cells
+/// within d-1 of it is empty, so the walk jumps to the ray's exit from that
+/// cube (one boundary per axis, the nearest wins) and restarts the 3D-DDA
+/// there, as at the grid's entry. The exit axis's cell is set by index, the
+/// others by flooring the exit point, kept within the cube's span so that a
+/// rounding error moves the restart by at most one cell, within the
+/// cells' conservative margins (grid.h). A jump must pass the current
+/// cell's exit and the previous jump's target, so the walk always ends.
 template <class Visit>
 inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
   const Vec3 inv_v{1.0f / ray.direction.x, 1.0f / ray.direction.y, 1.0f / ray.direction.z};
@@ -218,22 +234,107 @@ inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
   float n0 = next_t[0], n1 = next_t[1], n2 = next_t[2];
   int l0 = left[0], l1 = left[1], l2 = left[2];
   int b0 = boundary[0], b1 = boundary[1], b2 = boundary[2];
+  float t_jumped = -kInfinity;  // the last jump's target
   for (;;) {
+    std::uint32_t d;
+    float t_here;  // the current cell's exit
+    int k;         // its axis
     // Axis of the first boundary: (n0 < n1) ? (n0 < n2 ? 0 : 2) : (n1 < n2 ? 1 : 2).
     if (n0 < n1 && n0 < n2) {
-      if (visit(std::uint32_t(cell), n0 < t1 ? n0 : t1) || n0 >= t1 || l0 == 0) return;
+      d = visit(std::uint32_t(cell), n0 < t1 ? n0 : t1);
+      if (d == kStopWalk || n0 >= t1) return;
+      if (d < 2) [[likely]] {
+        if (l0 == 0) return;
+        --l0;
+        cell += delta[0];
+        b0 += step[0];
+        n0 = (lower[0] + float(b0) * size[0] - org[0]) * inv[0];
+        continue;
+      }
+      t_here = n0, k = 0;
+    } else if (!(n0 < n1) && n1 < n2) {
+      d = visit(std::uint32_t(cell), n1 < t1 ? n1 : t1);
+      if (d == kStopWalk || n1 >= t1) return;
+      if (d < 2) [[likely]] {
+        if (l1 == 0) return;
+        --l1;
+        cell += delta[1];
+        b1 += step[1];
+        n1 = (lower[1] + float(b1) * size[1] - org[1]) * inv[1];
+        continue;
+      }
+      t_here = n1, k = 1;
+    } else {
+      d = visit(std::uint32_t(cell), n2 < t1 ? n2 : t1);
+      if (d == kStopWalk || n2 >= t1) return;
+      if (d < 2) [[likely]] {
+        if (l2 == 0) return;
+        --l2;
+        cell += delta[2];
+        b2 += step[2];
+        n2 = (lower[2] + float(b2) * size[2] - org[2]) * inv[2];
+        continue;
+      }
+      t_here = n2, k = 2;
+    }
+    // An empty cube of radius r = d-1 around the current cell: its far
+    // boundary on each moving axis (clamped to the grid) and the ray's
+    // parameter there.
+    const int r = int(d) - 1;
+    int b[3] = {b0, b1, b2};
+    const int l[3] = {l0, l1, l2};
+    int far[3];
+    float t_far[3];
+    for (int a = 0; a < 3; ++a) {
+      const int reach = r < l[a] ? r : l[a];  // l[a] < 0 on a still axis: t_far stays +inf
+      far[a] = b[a] + step[a] * reach;
+      t_far[a] = step[a] != 0 ? (lower[a] + float(far[a]) * size[a] - org[a]) * inv[a] : kInfinity;
+    }
+    const int e = (t_far[0] < t_far[1]) ? (t_far[0] < t_far[2] ? 0 : 2) : (t_far[1] < t_far[2] ? 1 : 2);
+    const float t_jump = t_far[e];
+    if (t_jump > t_here && t_jump > t_jumped) {
+      // The ray leaves the grid, or its segment ends, inside the empty cube.
+      if (t_jump >= t1 || (r >= l[e])) return;
+      t_jumped = t_jump;
+      const Vec3 q = ray.at(t_jump);
+      const float qa[3] = {q.x, q.y, q.z};
+      cell = 0;
+      for (int a = 0; a < 3; ++a) {
+        int c = b[a] - int(step[a] > 0);  // current cell on a still axis
+        if (a == e) {
+          c = far[a] - int(step[a] < 0);  // just across the exit face
+        } else if (step[a] != 0) {
+          // Within the cube's span on this axis: [current cell, far face's cell].
+          const int lo = step[a] > 0 ? c : far[a] - 1, hi = step[a] > 0 ? far[a] : c;
+          const int f = clamped_floor((qa[a] - lower[a]) * inv_size[a], g.res[a]);
+          c = f < lo ? lo : (f > hi ? hi : f);
+          c = c > g.res[a] - 1 ? g.res[a] - 1 : (c < 0 ? 0 : c);
+        }
+        cell += c * stride[a];
+        b[a] = c + int(step[a] > 0);
+        t_far[a] = step[a] != 0 ? (lower[a] + float(b[a]) * size[a] - org[a]) * inv[a] : kInfinity;
+        far[a] = step[a] > 0 ? g.res[a] - 1 - c : (step[a] < 0 ? c : -1);  // steps left
+      }
+      b0 = b[0], b1 = b[1], b2 = b[2];
+      n0 = t_far[0], n1 = t_far[1], n2 = t_far[2];
+      l0 = far[0], l1 = far[1], l2 = far[2];
+      continue;
+    }
+    // No gain: an ordinary step along k.
+    if (k == 0) {
+      if (l0 == 0) return;
       --l0;
       cell += delta[0];
       b0 += step[0];
       n0 = (lower[0] + float(b0) * size[0] - org[0]) * inv[0];
-    } else if (!(n0 < n1) && n1 < n2) {
-      if (visit(std::uint32_t(cell), n1 < t1 ? n1 : t1) || n1 >= t1 || l1 == 0) return;
+    } else if (k == 1) {
+      if (l1 == 0) return;
       --l1;
       cell += delta[1];
       b1 += step[1];
       n1 = (lower[1] + float(b1) * size[1] - org[1]) * inv[1];
     } else {
-      if (visit(std::uint32_t(cell), n2 < t1 ? n2 : t1) || n2 >= t1 || l2 == 0) return;
+      if (l2 == 0) return;
       --l2;
       cell += delta[2];
       b2 += step[2];
@@ -255,16 +356,16 @@ template <int KX, int KY, int KZ, class View>
   Mailbox::Probe mailbox = scratch.mailbox.probe();
   Hit hit = hit_out;
   bool found = false;
-  walk_grid(view.grid_info(), ray, [&](std::uint32_t cell, float t_exit) {
+  walk_grid(view.grid_info(), ray, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
     ++stats.cells_visited;
-    view.for_each_in_cell(cell, [&](std::uint32_t id) {
+    const std::uint32_t empty = view.for_each_in_cell(cell, [&](std::uint32_t id) {
       if (mailbox.seen_or_insert(id)) {
         ++stats.mailbox_skips;
         return;
       }
       found |= intersect_primitive_axes<KX, KY, KZ>(view.primitive(id), id, ray, w, lanes, hit, stats);
     });
-    return found && hit.t <= t_exit;
+    return found && hit.t <= t_exit ? kStopWalk : empty;
   });
   scratch.stats += stats;
   hit_out = hit;
@@ -279,9 +380,9 @@ template <int KX, int KY, int KZ, class View>
   bool found = false;
   Hit hit;
   hit.t = ray.tmax;
-  walk_grid(view.grid_info(), ray, [&](std::uint32_t cell, float) {
+  walk_grid(view.grid_info(), ray, [&](std::uint32_t cell, float) -> std::uint32_t {
     ++stats.cells_visited;
-    view.for_each_in_cell(cell, [&](std::uint32_t id) {
+    const std::uint32_t empty = view.for_each_in_cell(cell, [&](std::uint32_t id) {
       if (found) return;
       if (mailbox.seen_or_insert(id)) {
         ++stats.mailbox_skips;
@@ -289,7 +390,7 @@ template <int KX, int KY, int KZ, class View>
       }
       found = intersect_primitive_axes<KX, KY, KZ>(view.primitive(id), id, ray, w, lanes, hit, stats);
     });
-    return found;
+    return found ? kStopWalk : empty;
   });
   scratch.stats += stats;
   return found;

@@ -90,6 +90,7 @@ struct NodeState {
   ArenaArray<core::Material> materials;
   ArenaArray<std::uint32_t> cell_start;
   ArenaArray<std::uint32_t> cell_primitives;
+  ArenaArray<std::uint8_t> empty_distance;
   ArenaArray<std::uint8_t> shared;
   ArenaArray<core::Light> lights;
   ArenaArray<KdNode> tree;
@@ -159,7 +160,7 @@ class NodeTracer {
         s_(s),
         me_(ctx.id()),
         view_(core::DatabaseArrays{s.primitives.span(), s.vertex_normals.span(), s.materials.span(),
-                                   s.cell_start.span(), s.cell_primitives.span(), s.grid},
+                                   s.cell_start.span(), s.cell_primitives.span(), s.empty_distance.span(), s.grid},
               s.shared.data(), &s.stats.shared_tests),
         map_{s.frame, s.tree.span(), s.rects.span()},
         shading_(core::make_shading_context(std::span<const core::Light>(s.lights.span()), s.background, s.max_depth,
@@ -640,6 +641,8 @@ DataflowResult render_dataflow(const core::Database& db, const core::Grid& grid,
     s->cell_start = nodes::copy_to_arena(a, std::span<const std::uint32_t>(rd.grid.cell_start), "the region's grid cells");
     s->cell_primitives =
         nodes::copy_to_arena(a, std::span<const std::uint32_t>(rd.grid.cell_primitives), "the region's cell lists");
+    s->empty_distance = nodes::copy_to_arena(a, std::span<const std::uint8_t>(rd.grid.empty_distance),
+                                             "the region's empty-space distances");
     s->shared = nodes::copy_to_arena(a, std::span<const std::uint8_t>(rd.shared), "the shared-primitive flags");
     s->lights = nodes::copy_to_arena(a, std::span<const core::Light>(db.lights), "the lights");
     s->tree = nodes::copy_to_arena(a, std::span<const KdNode>(partition.tree), "the region tree");

@@ -40,10 +40,10 @@ class CostView {
       : base_(base), bin_of_cell_(bin_of_cell), cost_(cost) {}
   const core::GridInfo& grid_info() const { return base_.grid_info(); }
   template <class F>
-  void for_each_in_cell(std::uint32_t cell, F&& f) const {
+  std::uint32_t for_each_in_cell(std::uint32_t cell, F&& f) const {
     const auto& a = base_.arrays();
     cost_[bin_of_cell_[cell]] += 1.0 + double(a.cell_start[cell + 1] - a.cell_start[cell]);
-    base_.for_each_in_cell(cell, f);
+    return base_.for_each_in_cell(cell, f);
   }
   const core::Primitive& primitive(std::uint32_t id) const { return base_.primitive(id); }
   const core::Material& material(std::uint32_t id) const { return base_.material(id); }

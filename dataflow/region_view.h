@@ -61,9 +61,11 @@ class RegionView {
 
   const core::GridInfo& grid_info() const { return a_.grid; }
   template <class F>
-  void for_each_in_cell(std::uint32_t cell, F&& f) const {
+  std::uint32_t for_each_in_cell(std::uint32_t cell, F&& f) const {
+    if (const std::uint32_t d = a_.empty_distance[cell]) return d;
     const std::uint32_t* p = a_.cell_primitives.data();
     for (std::uint32_t i = a_.cell_start[cell], e = a_.cell_start[cell + 1]; i < e; ++i) f(p[i]);
+    return 0;
   }
   /// The traversal calls this once per intersection test.
   const core::Primitive& primitive(std::uint32_t id) const {

@@ -33,6 +33,7 @@ struct NodeState {
   ArenaArray<core::Material> materials;
   ArenaArray<std::uint32_t> cell_start;
   ArenaArray<std::uint32_t> cell_primitives;
+  ArenaArray<std::uint8_t> empty_distance;
   ArenaArray<core::Light> lights;
   ArenaArray<float> pixels;  ///< one work item's outgoing pixels
   core::ShadingScratch* scratch = nullptr;
@@ -108,6 +109,7 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
     s->materials = copy_to_arena(a, host_arrays.materials, "the database copy (materials)");
     s->cell_start = copy_to_arena(a, host_arrays.cell_start, "the database copy (grid cells)");
     s->cell_primitives = copy_to_arena(a, host_arrays.cell_primitives, "the database copy (cell lists)");
+    s->empty_distance = copy_to_arena(a, host_arrays.empty_distance, "the database copy (empty-space distances)");
     s->lights = copy_to_arena(a, std::span<const core::Light>(db.lights), "the lights");
     s->pixels = ArenaArray<float>(a, item_floats, "its pixel buffer");
     s->scratch = a.create<core::ShadingScratch>("its tracing scratch");
@@ -119,7 +121,7 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
   auto node_main = [&](NodeContext& ctx) {
     NodeState& s = *states[ctx.id()];
     core::DatabaseArrays mine{s.primitives.span(), s.vertex_normals.span(), s.materials.span(),
-                              s.cell_start.span(), s.cell_primitives.span(), s.grid};
+                              s.cell_start.span(), s.cell_primitives.span(), s.empty_distance.span(), s.grid};
     const core::DirectView view(mine);
     const core::ShadingContext shading = core::make_shading_context(
         std::span<const core::Light>(s.lights.span()), s.background, s.render.max_depth, s.render.min_weight);

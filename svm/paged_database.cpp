@@ -100,6 +100,12 @@ PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, s
     std::memcpy(at(l.directory_page(c), l.directory_offset(c)), &e, sizeof e);
     std::memcpy(lists + address, grid.cell_primitives.data() + begin, std::size_t(end - begin) * sizeof(std::uint32_t));
   });
+  // An empty cell's entry holds its empty-space distance in the list field.
+  for (std::uint32_t c = 0; c < l.cells; ++c)
+    if (grid.cell_start[c] == grid.cell_start[c + 1]) {
+      const DirectoryEntry e{0, grid.empty_distance[c]};
+      std::memcpy(at(l.directory_page(c), l.directory_offset(c)), &e, sizeof e);
+    }
   // Primitives, then vertex normals.
   for (std::uint32_t id = 0; id < l.primitives; ++id)
     std::memcpy(at(l.primitive_page(id), l.primitive_offset(id)), &db.primitives[id], sizeof(core::Primitive));

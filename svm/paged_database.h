@@ -10,7 +10,9 @@
 //
 // Segments, in page order (each starts on a page boundary):
 //   directory  one 8-byte DirectoryEntry per grid cell (the "voxels"):
-//              how many primitives the cell lists and where its list starts;
+//              how many primitives the cell lists and where its list starts
+//              (for an empty cell, its empty-space distance instead, so the
+//              walk's jumps need no other replicated or paged data);
 //   lists      the cells' primitive ids (4 bytes each), packed in cell
 //              order; a list that does not fit in the rest of the current
 //              page but fits in one page starts on a fresh page, a longer
@@ -35,7 +37,9 @@ namespace raynode::svm {
 /// One grid cell's entry in the paged cell directory.
 struct DirectoryEntry {
   std::uint32_t count = 0;  ///< primitives listed in the cell
-  std::uint32_t list = 0;   ///< byte address of the first id in the lists segment (0 when count == 0)
+  /// count > 0: byte address of the first id in the lists segment;
+  /// count == 0: the cell's empty-space distance (core::Grid::empty_distance).
+  std::uint32_t list = 0;
 };
 static_assert(sizeof(DirectoryEntry) == 8);
 

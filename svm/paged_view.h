@@ -39,10 +39,11 @@ class PagedView {
   const core::GridInfo& grid_info() const { return grid_; }
 
   template <class F>
-  void for_each_in_cell(std::uint32_t cell, F&& f) const {
+  std::uint32_t for_each_in_cell(std::uint32_t cell, F&& f) const {
     DirectoryEntry e;
     std::memcpy(&e, pager_->access(layout_.directory_page(cell)) + layout_.directory_offset(cell),
                 sizeof e);
+    if (e.count == 0) return e.list;  // an empty cell's entry holds its empty-space distance
     std::uint32_t address = e.list, left = e.count;
     while (left > 0) {
       const std::uint32_t page = layout_.list_page(address), offset = layout_.list_offset(address);
@@ -58,6 +59,7 @@ class PagedView {
       left -= n;
       address += n * std::uint32_t(sizeof(std::uint32_t));
     }
+    return 0;
   }
   const core::Primitive& primitive(std::uint32_t id) const {
     return *reinterpret_cast<const core::Primitive*>(pager_->access(layout_.primitive_page(id)) +

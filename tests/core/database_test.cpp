@@ -422,7 +422,8 @@ TEST_CASE("grid build: building twice gives identical lists") {
   CHECK(a.cell_start == b.cell_start);
   CHECK(a.cell_primitives == b.cell_primitives);
   CHECK(a.references() == a.cell_primitives.size());
-  CHECK(a.bytes() == (a.cell_start.size() + a.cell_primitives.size()) * sizeof(std::uint32_t));
+  CHECK(a.empty_distance == b.empty_distance);
+  CHECK(a.bytes() == (a.cell_start.size() + a.cell_primitives.size()) * sizeof(std::uint32_t) + a.cell_start.size() - 1);
   std::size_t empty = 0;
   for (std::uint32_t c = 0; c < a.info.cell_count(); ++c) empty += a.cell_start[c] == a.cell_start[c + 1];
   CHECK(a.empty_cells() == empty);

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <random>
 #include <string>
 #include <vector>
@@ -226,8 +227,12 @@ TEST_CASE("grid: the walk stops early when a near primitive is hit") {
     if (near) add_quad(s, {0.5f, -0.2f, -0.2f}, {0.5f, 0.2f, -0.2f}, {0.5f, 0.2f, 0.2f}, {0.5f, -0.2f, 0.2f});
     return s;
   };
-  const Built with_near(make(true), forced(64, 4, 4));
-  const Built far_only(make(false), forced(64, 4, 4));
+  // Cell by cell (no empty-space jumps), so that the walk's length is the
+  // number of cells up to the hit.
+  GridParams gp = forced(64, 4, 4);
+  gp.skip_empty = false;
+  const Built with_near(make(true), gp);
+  const Built far_only(make(false), gp);
   REQUIRE(with_near.grid.info.bounds.lower == far_only.grid.info.bounds.lower);
   REQUIRE(with_near.grid.info.bounds.upper == far_only.grid.info.bounds.upper);
   const Ray ray{{-1, 0.1f, 0.05f}, {1, 0, 0}, 0.0f, kInfinity};
@@ -243,4 +248,145 @@ TEST_CASE("grid: the walk stops early when a near primitive is hit") {
   TraversalScratch c;
   CHECK(intersect_any(with_near.view(), ray, c));
   CHECK(c.stats.cells_visited * 8 < b.stats.cells_visited);
+}
+
+// ---------------------------------------------------------------------------
+// Empty-space jumps (Grid::empty_distance)
+
+TEST_CASE("grid: empty-space distances are the Chebyshev distance to the nearest non-empty cell") {
+  for (const std::uint64_t seed : {3u, 4u}) {
+    const Built b(random_scene(seed, 12, 2, 1, 0.05f), forced(13, 9, 7));
+    const GridInfo& g = b.grid.info;
+    REQUIRE(b.grid.empty_distance.size() == g.cell_count());
+    std::size_t nonempty = 0, far = 0;
+    for (int z = 0; z < g.res[2]; ++z)
+      for (int y = 0; y < g.res[1]; ++y)
+        for (int x = 0; x < g.res[0]; ++x) {
+          const std::uint32_t c = g.cell_index(x, y, z);
+          int expect = 255;
+          for (int qz = 0; qz < g.res[2]; ++qz)
+            for (int qy = 0; qy < g.res[1]; ++qy)
+              for (int qx = 0; qx < g.res[0]; ++qx) {
+                const std::uint32_t q = g.cell_index(qx, qy, qz);
+                if (b.grid.cell_start[q] == b.grid.cell_start[q + 1]) continue;
+                expect = std::min(expect, std::max({std::abs(qx - x), std::abs(qy - y), std::abs(qz - z)}));
+              }
+          CAPTURE(x);
+          CAPTURE(y);
+          CAPTURE(z);
+          REQUIRE(int(b.grid.empty_distance[c]) == expect);
+          nonempty += expect == 0;
+          far += expect >= 3;
+        }
+    // The scene leaves room for real jumps.
+    CHECK(nonempty > 0);
+    CHECK(far > 0);
+  }
+  // Switched off: 0 and 1 only. No primitives: the cap everywhere.
+  GridParams off = forced(13, 9, 7);
+  off.skip_empty = false;
+  const Built plain(random_scene(3, 12, 2, 1, 0.05f), off);
+  for (std::uint32_t c = 0; c < plain.grid.info.cell_count(); ++c)
+    REQUIRE(plain.grid.empty_distance[c] == (plain.grid.cell_start[c] == plain.grid.cell_start[c + 1] ? 1 : 0));
+  const Built none(Scene{}, forced(5, 5, 5));
+  for (const std::uint8_t d : none.grid.empty_distance) REQUIRE(d == kMaxEmptyDistance);
+}
+
+namespace {
+
+// Fires `rays` through a grid with jumps and the same grid without, and
+// requires the same answers bit for bit; returns the cells each visited.
+struct JumpComparison {
+  const Built& jumps;
+  const Built& plain;
+  TraversalScratch sj, sp;
+  std::size_t rays = 0, hits = 0;
+
+  void fire(const Ray& ray) {
+    Hit hj, hp;
+    const bool fj = intersect_closest(jumps.view(), ray, hj, sj);
+    const bool fp = intersect_closest(plain.view(), ray, hp, sp);
+    INFO(str(ray));
+    REQUIRE(fj == fp);
+    REQUIRE(hj.primitive == hp.primitive);
+    REQUIRE(std::memcmp(&hj.t, &hp.t, sizeof(float)) == 0);
+    REQUIRE(intersect_any(jumps.view(), ray, sj) == intersect_any(plain.view(), ray, sp));
+    ++rays;
+    hits += fj;
+  }
+};
+
+}  // namespace
+
+TEST_CASE("grid: empty-space jumps find the cell-by-cell walk's hits, bit for bit, in fewer cells") {
+  // Sparse scenes at a fine resolution: long empty runs between small objects.
+  for (const std::uint64_t seed : {11u, 12u, 13u}) {
+    CAPTURE(seed);
+    const Scene s = random_scene(seed, 60, 6, 4, 0.04f);
+    GridParams on = forced(40, 33, 27), off = on;
+    off.skip_empty = false;
+    const Built jumps(s, on), plain(s, off);
+    REQUIRE(jumps.grid.info.bounds.lower == plain.grid.info.bounds.lower);
+    REQUIRE(jumps.grid.cell_primitives == plain.grid.cell_primitives);
+    JumpComparison cmp{jumps, plain};
+    const GridInfo& g = jumps.grid.info;
+    Rng rng(seed);
+    const Bounds3 around = grown(g.bounds, 0.3f);
+    // Random rays from outside, inside, and aimed at primitives; shadow-ray
+    // segments that end in empty space.
+    for (int i = 0; i < 3000; ++i) {
+      const Vec3 o = random_in(rng, i % 2 ? around : g.bounds);
+      cmp.fire(Ray{o, random_unit(rng), 0.0f, kInfinity});
+      const Primitive& p = jumps.db.primitives[rng() % jumps.db.primitives.size()];
+      cmp.fire(Ray{o, normalize(centre_of(p) - o), 0.0f, kInfinity});
+      cmp.fire(Ray{o, random_unit(rng), 0.0f, uniform(rng, 0.05f, 2.0f)});
+    }
+    // Rays along cell planes, through cell edges and grid vertices, axis
+    // parallel and diagonal: where a jump's exit point lies on cell boundaries.
+    for (int i = 0; i < 3000; ++i) {
+      const int a = int(rng() % 3), b2 = (a + 1) % 3;
+      Vec3 o = random_in(rng, around);
+      o[a] = grid_plane(g, a, int(rng() % (g.res[a] + 1)));
+      if (i % 2) o[b2] = grid_plane(g, b2, int(rng() % (g.res[b2] + 1)));
+      Vec3 d = random_unit(rng);
+      d[a] = 0;
+      if (i % 3 == 0) d[b2] = 0;
+      if (i % 5 == 0) d = Vec3{1, 1, 1} * (rng() % 2 ? 1.0f : -1.0f);
+      if (i % 7 == 0) {
+        d = {0, 0, 0};
+        d[int(rng() % 3)] = rng() % 2 ? 1.0f : -1.0f;
+      }
+      if (length(d) < 1e-3f) continue;
+      cmp.fire(Ray{o, normalize(d), 0.0f, kInfinity});
+    }
+    CHECK(cmp.hits > cmp.rays / 10);
+    CHECK(cmp.sj.stats.cells_visited * 2 < cmp.sp.stats.cells_visited);
+  }
+}
+
+TEST_CASE("grid: a jump never passes a primitive in the cell just beyond the empty cube") {
+  // One small triangle per cell at the end of a long empty corridor, hit by
+  // rays along the corridor at many slopes: each jump ends next to it.
+  GridParams on = forced(64, 8, 8), off = on;
+  off.skip_empty = false;
+  Scene s;
+  add_quad(s, {-1, -1, -1}, {-0.99f, -1, -1}, {-0.99f, -0.99f, -1}, {-1, -0.99f, -1});  // anchors the box
+  add_quad(s, {1, 1, 1}, {0.99f, 1, 1}, {0.99f, 0.99f, 1}, {1, 0.99f, 1});
+  const Built probe(s, on);
+  const GridInfo& g = probe.grid.info;
+  for (int i = 5; i < 64; i += 6) {
+    const float x = grid_plane(g, 0, i) + 0.5f * g.cell_size.x;
+    add_quad(s, {x, -0.2f, -0.2f}, {x, 0.2f, -0.2f}, {x, 0.2f, 0.2f}, {x, -0.2f, 0.2f});
+  }
+  const Built jumps(s, on), plain(s, off);
+  REQUIRE(jumps.grid.info.bounds.lower == g.bounds.lower);
+  JumpComparison cmp{jumps, plain};
+  Rng rng(5);
+  for (int i = 0; i < 2000; ++i) {
+    const float x0 = grid_plane(g, 0, int(rng() % 64));
+    const Vec3 o{x0, uniform(rng, -0.3f, 0.3f), uniform(rng, -0.3f, 0.3f)};
+    const Vec3 d = normalize(Vec3{rng() % 2 ? 1.0f : -1.0f, uniform(rng, -0.05f, 0.05f), uniform(rng, -0.05f, 0.05f)});
+    cmp.fire(Ray{o, d, 0.0f, kInfinity});
+  }
+  CHECK(cmp.hits > cmp.rays / 3);
 }

@@ -52,6 +52,12 @@ TEST_CASE("paged database: every object is found in its page, byte for byte, for
         const std::vector<std::uint32_t> expect(b.grid.cell_primitives.begin() + b.grid.cell_start[c],
                                                 b.grid.cell_primitives.begin() + b.grid.cell_start[c + 1]);
         REQUIRE(list_of(im, c) == expect);
+        if (expect.empty()) {  // the entry carries the cell's empty-space distance instead
+          DirectoryEntry e;
+          std::memcpy(&e, im.page(l.directory_page(c)).data() + l.directory_offset(c), sizeof e);
+          REQUIRE(e.count == 0);
+          REQUIRE(e.list == b.grid.empty_distance[c]);
+        }
       }
       // Records equal the database's; none crosses a page boundary.
       for (std::uint32_t id = 0; id < b.db.primitives.size(); ++id) {
