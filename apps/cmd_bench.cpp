@@ -130,6 +130,7 @@ void run_bench(const BenchOptions& o) {
                         {"embree_rays_per_s", n / embree_s},
                         {"grid_over_embree_time", ratio},
                         {"cells_per_ray", double(st.cells_visited) / n},
+                        {"jumps_per_ray", double(st.empty_jumps) / n},
                         {"tests_per_ray", double(st.triangle_tests + st.sphere_tests + st.cone_tests) / n},
                         {"empty_cells", grid.empty_cells()},
                         {"checksum", sink}};

@@ -40,6 +40,7 @@ struct CostModelOptions {
   int width = 128, height = 128;
   int repeat = 3;
   bool pager = true;
+  std::vector<std::string> fit;  ///< features to fit; empty: all
 };
 
 /// "name:size@R" -> SceneSource with --tessellate R.
@@ -184,6 +185,12 @@ void register_bench_cost_model_command(CLI::App& app) {
       ->check(CLI::Range(1, 100))
       ->capture_default_str();
   c->add_flag("!--no-pager", o->pager, "Skip the svm pager's costs");
+  std::vector<std::string> names;
+  for (int k = 0; k < core::kCostFeatureCount; ++k) names.push_back(core::cost_feature_name(core::CostFeature(k)));
+  c->add_option("--fit", o->fit,
+                "Fit only these unit costs (e.g. empty_jump); the others keep the built-in model's [default: all]")
+      ->check(CLI::IsMember(names))
+      ->delimiter(',');
   c->callback([o] {
     std::vector<core::CostSample> tiles, pager;
     std::vector<std::pair<std::string, std::vector<core::CostSample>>> per_scene;
@@ -212,6 +219,15 @@ void register_bench_cost_model_command(CLI::App& app) {
     core::CostModel start;
     start.unit_s[std::size_t(core::CostFeature::kPageFault)] =
         core::default_cost_model().unit_s[std::size_t(core::CostFeature::kPageFault)];
+    if (!o->fit.empty()) {
+      start = core::default_cost_model();
+      for (int k = 0; k < core::kCostFeatureCount; ++k) {
+        const bool chosen = std::find(o->fit.begin(), o->fit.end(),
+                                      core::cost_feature_name(core::CostFeature(k))) != o->fit.end();
+        tracer[std::size_t(k)] = tracer[std::size_t(k)] && chosen;
+        paging[std::size_t(k)] = paging[std::size_t(k)] && chosen;
+      }
+    }
     core::CostModel m = core::fit_cost_model(tiles, tracer, start);
     if (o->pager) m = core::fit_cost_model(pager, paging, m);
 

@@ -108,7 +108,9 @@ void run_bench_nodes(const NodesBenchOptions& o) {
   spec.cache_pages = o.cache_pages;
   const core::Scene scene = core::load_scene(o.source);
   const core::Database db = core::make_database(scene);
-  const core::Grid grid = core::build_grid(db);
+  core::GridParams gp;
+  gp.skip_empty = o.run.skip_empty;
+  const core::Grid grid = core::build_grid(db, gp);
   fmt::print("{} {} {}x{}, network {}, node memory {}, clock {}, {} hardware threads, best of {}\n", o.mode,
              o.source.spec, o.run.width, o.run.height, o.run.network, o.run.node_memory, o.run.clock,
              std::thread::hardware_concurrency(), o.run.repeat);

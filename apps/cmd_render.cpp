@@ -453,6 +453,7 @@ void run_render(const RenderOptions& o) {
           {"sphere", s.traversal.sphere_tests},
           {"cone", s.traversal.cone_tests}}},
         {"cells_visited", s.traversal.cells_visited},
+        {"empty_jumps", s.traversal.empty_jumps},
         {"mailbox_skips", s.traversal.mailbox_skips},
         {"time", {{"wall_s", wall_s}, {"cpu_s", cpu_s}, {"accel_build_s", accel.build_s}}},
         {"scene_counts",

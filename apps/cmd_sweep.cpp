@@ -158,7 +158,7 @@ const std::vector<std::string>& run_columns() {
 /// point was skipped, or that T_1 ran with more memory).
 const std::vector<std::string>& setting_columns() {
   static const std::vector<std::string> c = {"node_memory", "network", "network_scale", "clock",
-                                             "width",       "height",  "repeat",        "note"};
+                                             "width",       "height",  "repeat",        "skip_empty", "note"};
   return c;
 }
 
@@ -292,7 +292,9 @@ SweepFrame make_frame(const std::string& kind, SweepOptions& o) {
   f.spec = make_node_run_spec(o.run);  // before the scene: bad options fail fast
   const core::Scene scene = core::load_scene(o.source);
   f.db = core::make_database(scene);
-  f.grid = core::build_grid(f.db);
+  core::GridParams gp;
+  gp.skip_empty = o.run.skip_empty;
+  f.grid = core::build_grid(f.db, gp);
   return f;
 }
 
@@ -306,6 +308,7 @@ void fill_settings(Table& t, std::size_t row, const SweepFrame& f, const SweepOp
   t.set(row, "height", fmt::format("{}", o.run.height));
   t.set(row, "repeat", fmt::format("{}", o.run.repeat));
   t.set(row, "page_size", fmt::format("{}", f.spec.page_size));
+  t.set(row, "skip_empty", o.run.skip_empty ? "on" : "off");
   // The iPSC/2-equivalent page traffic per node: virtual seconds here are
   // this machine's, the iPSC/2's are 1/scale times longer.
   const std::string& per_node = t.get(row, "communication_rate_per_node_bytes_per_s");

@@ -20,6 +20,7 @@ struct ValidateOptions {
   bool json = false;
   core::ValidateParams params;
   float density = core::GridParams{}.density;
+  bool skip_empty = core::GridParams{}.skip_empty;
 };
 
 nlohmann::json counts_json(const core::ValidateCounts& c) {
@@ -43,6 +44,7 @@ void run_validate(const ValidateOptions& o) {
     throw std::runtime_error(fmt::format("{}: the scene has no primitives to validate", o.source.spec));
   core::GridParams gp;
   gp.density = o.density;
+  gp.skip_empty = o.skip_empty;
   const core::Grid grid = core::build_grid(db, gp);
   const core::EmbreeScene embree(db);
   const core::ValidateReport r = [&] {
@@ -119,6 +121,7 @@ void register_validate_command(CLI::App& app) {
       ->check(CLI::Range(0.0f, 1.0f));
   c->add_option("--grid-density", o->density, "Grid cells per primitive (resolution heuristic)")
       ->check(CLI::Range(0.01f, 1000.0f));
+  add_skip_empty_option(*c, o->skip_empty);
   c->callback([o] { run_validate(*o); });
 }
 

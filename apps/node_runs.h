@@ -48,6 +48,7 @@ struct NodeRunOptions {
   std::string work_requests = "ring";   ///< ring or last-grantor (nodes::WorkRequestRoute)
   double timeout_s = 0;                 ///< per run, wall seconds; 0 = none
   int repeat = 1;                       ///< runs per point; the lowest T_p is kept
+  bool skip_empty = true;               ///< grid: empty-space jumps (core::GridParams::skip_empty)
   // svm
   std::uint32_t page_size = 1024;       ///< bytes
   // dataflow
@@ -63,8 +64,8 @@ struct NodeRunOptionSet {
 };
 
 /// Adds --width, --height, --node-memory, --network, --network-scale,
-/// --topology, --work-item, --schedule-window, --clock, --timeout, --repeat
-/// and (per `set`) the svm and dataflow options to `cmd`, with `o`'s
+/// --topology, --work-item, --schedule-window, --clock, --timeout, --repeat,
+/// --skip-empty and (per `set`) the svm and dataflow options to `cmd`, with `o`'s
 /// current values as the defaults shown in --help. `o` must outlive `cmd`.
 void add_node_run_options(CLI::App& cmd, NodeRunOptions& o, NodeRunOptionSet set = {});
 

@@ -12,6 +12,7 @@ const char* cost_feature_name(CostFeature f) {
     case CostFeature::kReflectedRay: return "reflected_ray";
     case CostFeature::kRefractedRay: return "refracted_ray";
     case CostFeature::kCell: return "cell";
+    case CostFeature::kEmptyJump: return "empty_jump";
     case CostFeature::kTriangleTest: return "triangle_test";
     case CostFeature::kSphereTest: return "sphere_test";
     case CostFeature::kConeTest: return "cone_test";
@@ -32,6 +33,7 @@ CostCounts cost_counts(const RayCounts& rays, const TraversalStats& traversal) {
   at(CostFeature::kReflectedRay) = double(rays.reflected);
   at(CostFeature::kRefractedRay) = double(rays.refracted);
   at(CostFeature::kCell) = double(traversal.cells_visited);
+  at(CostFeature::kEmptyJump) = double(traversal.empty_jumps);
   at(CostFeature::kTriangleTest) = double(traversal.triangle_tests);
   at(CostFeature::kSphereTest) = double(traversal.sphere_tests);
   at(CostFeature::kConeTest) = double(traversal.cone_tests);

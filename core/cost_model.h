@@ -36,6 +36,7 @@ enum class CostFeature : int {
   kReflectedRay,  ///< reflected ray spawned
   kRefractedRay,  ///< refracted (or totally internally reflected) ray spawned
   kCell,          ///< grid cell visited by the 3D-DDA
+  kEmptyJump,     ///< empty-space jump of the 3D-DDA (TraversalStats::empty_jumps)
   kTriangleTest,  ///< ray/triangle test (watertight)
   kSphereTest,    ///< ray/sphere test
   kConeTest,      ///< ray/cone test
@@ -90,6 +91,11 @@ inline CostModel default_cost_model() {
   at(CostFeature::kReflectedRay) = 320e-9;
   at(CostFeature::kRefractedRay) = 29.35e-9;
   at(CostFeature::kCell) = 6.24e-9;
+  // Fitted 2026-11-22 with the other tracer units held (`bench cost-model
+  // --fit empty_jump --no-pager --width 256 --height 256 --repeat 5`):
+  // 31-57 ns over three runs on a noisy machine (jumps from distance 2 up);
+  // full refits gave 36-39 ns.
+  at(CostFeature::kEmptyJump) = 40e-9;
   at(CostFeature::kTriangleTest) = 6.482e-9;
   at(CostFeature::kSphereTest) = 6.645e-9;
   at(CostFeature::kConeTest) = 28.19e-9;

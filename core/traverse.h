@@ -43,6 +43,7 @@ struct Hit {
 struct TraversalStats {
   std::uint64_t rays = 0;
   std::uint64_t cells_visited = 0;
+  std::uint64_t empty_jumps = 0;  ///< empty-space jumps tried (visited cells with distance >= kMinJumpDistance)
   std::uint64_t triangle_tests = 0;
   std::uint64_t sphere_tests = 0;
   std::uint64_t cone_tests = 0;
@@ -50,6 +51,7 @@ struct TraversalStats {
   TraversalStats& operator+=(const TraversalStats& o) {
     rays += o.rays;
     cells_visited += o.cells_visited;
+    empty_jumps += o.empty_jumps;
     triangle_tests += o.triangle_tests;
     sphere_tests += o.sphere_tests;
     cone_tests += o.cone_tests;
@@ -176,6 +178,13 @@ inline bool intersect_primitive(const Primitive& p, std::uint32_t id, const Ray&
 /// What a walk's visit returns to stop the walk.
 inline constexpr std::uint32_t kStopWalk = ~std::uint32_t(0);
 
+/// The least empty-space distance the walk jumps from. A jump costs about
+/// six cell steps (the model clock's fit: ~40 ns against 6.2 ns per cell)
+/// and crosses at least d-1 cells, so shorter jumps do not pay;
+/// `raynode bench accel` at 2, 3, 4, 6 and 8 put the best near 4 to 6, and
+/// in svm, where each cell visit is also a page access, 4 is best.
+inline constexpr std::uint32_t kMinJumpDistance = 4;
+
 /// Walks the grid cells pierced by `ray` in order, calling
 /// visit(cell, t_exit) for each; t_exit is the ray parameter where the ray
 /// leaves the cell. visit returns kStopWalk to stop the walk, else the
@@ -191,8 +200,8 @@ inline constexpr std::uint32_t kStopWalk = ~std::uint32_t(0);
 /// (x < y ? (x < z ? x : z) : (y < z ? y : z)); the cell index is kept
 /// linear (one add per step).
 ///
-/// Empty-space jumps: when a visited cell reports d >= 2, the cube of cells
-/// within d-1 of it is empty, so the walk jumps to the ray's exit from that
+/// Empty-space jumps: when a visited cell reports d >= kMinJumpDistance,
+/// the cube of cells within d-1 of it is empty, so the walk jumps to the ray's exit from that
 /// cube (one boundary per axis, the nearest wins) and restarts the 3D-DDA
 /// there, as at the grid's entry. The exit axis's cell is set by index, the
 /// others by flooring the exit point, kept within the cube's span so that a
@@ -243,7 +252,7 @@ inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
     if (n0 < n1 && n0 < n2) {
       d = visit(std::uint32_t(cell), n0 < t1 ? n0 : t1);
       if (d == kStopWalk || n0 >= t1) return;
-      if (d < 2) [[likely]] {
+      if (d < kMinJumpDistance) [[likely]] {
         if (l0 == 0) return;
         --l0;
         cell += delta[0];
@@ -255,7 +264,7 @@ inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
     } else if (!(n0 < n1) && n1 < n2) {
       d = visit(std::uint32_t(cell), n1 < t1 ? n1 : t1);
       if (d == kStopWalk || n1 >= t1) return;
-      if (d < 2) [[likely]] {
+      if (d < kMinJumpDistance) [[likely]] {
         if (l1 == 0) return;
         --l1;
         cell += delta[1];
@@ -267,7 +276,7 @@ inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
     } else {
       d = visit(std::uint32_t(cell), n2 < t1 ? n2 : t1);
       if (d == kStopWalk || n2 >= t1) return;
-      if (d < 2) [[likely]] {
+      if (d < kMinJumpDistance) [[likely]] {
         if (l2 == 0) return;
         --l2;
         cell += delta[2];
@@ -365,7 +374,9 @@ template <int KX, int KY, int KZ, class View>
       }
       found |= intersect_primitive_axes<KX, KY, KZ>(view.primitive(id), id, ray, w, lanes, hit, stats);
     });
-    return found && hit.t <= t_exit ? kStopWalk : empty;
+    if (found && hit.t <= t_exit) return kStopWalk;
+    stats.empty_jumps += empty >= kMinJumpDistance;
+    return empty;
   });
   scratch.stats += stats;
   hit_out = hit;
@@ -390,7 +401,9 @@ template <int KX, int KY, int KZ, class View>
       }
       found = intersect_primitive_axes<KX, KY, KZ>(view.primitive(id), id, ray, w, lanes, hit, stats);
     });
-    return found ? kStopWalk : empty;
+    if (found) return kStopWalk;
+    stats.empty_jumps += empty >= kMinJumpDistance;
+    return empty;
   });
   scratch.stats += stats;
   return found;
