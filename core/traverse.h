@@ -244,6 +244,15 @@ inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
   int l0 = left[0], l1 = left[1], l2 = left[2];
   int b0 = boundary[0], b1 = boundary[1], b2 = boundary[2];
   float t_jumped = -kInfinity;  // the last jump's target
+  // One cell along axis a; false when the ray leaves the grid there.
+  auto advance = [&](int& l, int& b, float& n, int a) [[gnu::always_inline]] {
+    if (l == 0) return false;
+    --l;
+    cell += delta[a];
+    b += step[a];
+    n = (lower[a] + float(b) * size[a] - org[a]) * inv[a];
+    return true;
+  };
   for (;;) {
     std::uint32_t d;
     float t_here;  // the current cell's exit
@@ -253,11 +262,7 @@ inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
       d = visit(std::uint32_t(cell), n0 < t1 ? n0 : t1);
       if (d == kStopWalk || n0 >= t1) return;
       if (d < kMinJumpDistance) [[likely]] {
-        if (l0 == 0) return;
-        --l0;
-        cell += delta[0];
-        b0 += step[0];
-        n0 = (lower[0] + float(b0) * size[0] - org[0]) * inv[0];
+        if (!advance(l0, b0, n0, 0)) return;
         continue;
       }
       t_here = n0, k = 0;
@@ -265,11 +270,7 @@ inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
       d = visit(std::uint32_t(cell), n1 < t1 ? n1 : t1);
       if (d == kStopWalk || n1 >= t1) return;
       if (d < kMinJumpDistance) [[likely]] {
-        if (l1 == 0) return;
-        --l1;
-        cell += delta[1];
-        b1 += step[1];
-        n1 = (lower[1] + float(b1) * size[1] - org[1]) * inv[1];
+        if (!advance(l1, b1, n1, 1)) return;
         continue;
       }
       t_here = n1, k = 1;
@@ -277,11 +278,7 @@ inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
       d = visit(std::uint32_t(cell), n2 < t1 ? n2 : t1);
       if (d == kStopWalk || n2 >= t1) return;
       if (d < kMinJumpDistance) [[likely]] {
-        if (l2 == 0) return;
-        --l2;
-        cell += delta[2];
-        b2 += step[2];
-        n2 = (lower[2] + float(b2) * size[2] - org[2]) * inv[2];
+        if (!advance(l2, b2, n2, 2)) return;
         continue;
       }
       t_here = n2, k = 2;
@@ -321,34 +318,16 @@ inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
         }
         cell += c * stride[a];
         b[a] = c + int(step[a] > 0);
-        t_far[a] = step[a] != 0 ? (lower[a] + float(b[a]) * size[a] - org[a]) * inv[a] : kInfinity;
-        far[a] = step[a] > 0 ? g.res[a] - 1 - c : (step[a] < 0 ? c : -1);  // steps left
+        next_t[a] = step[a] != 0 ? (lower[a] + float(b[a]) * size[a] - org[a]) * inv[a] : kInfinity;
+        left[a] = step[a] > 0 ? g.res[a] - 1 - c : (step[a] < 0 ? c : -1);
       }
       b0 = b[0], b1 = b[1], b2 = b[2];
-      n0 = t_far[0], n1 = t_far[1], n2 = t_far[2];
-      l0 = far[0], l1 = far[1], l2 = far[2];
+      n0 = next_t[0], n1 = next_t[1], n2 = next_t[2];
+      l0 = left[0], l1 = left[1], l2 = left[2];
       continue;
     }
     // No gain: an ordinary step along k.
-    if (k == 0) {
-      if (l0 == 0) return;
-      --l0;
-      cell += delta[0];
-      b0 += step[0];
-      n0 = (lower[0] + float(b0) * size[0] - org[0]) * inv[0];
-    } else if (k == 1) {
-      if (l1 == 0) return;
-      --l1;
-      cell += delta[1];
-      b1 += step[1];
-      n1 = (lower[1] + float(b1) * size[1] - org[1]) * inv[1];
-    } else {
-      if (l2 == 0) return;
-      --l2;
-      cell += delta[2];
-      b2 += step[2];
-      n2 = (lower[2] + float(b2) * size[2] - org[2]) * inv[2];
-    }
+    if (!(k == 0 ? advance(l0, b0, n0, 0) : k == 1 ? advance(l1, b1, n1, 1) : advance(l2, b2, n2, 2))) return;
   }
 }
 

@@ -297,6 +297,7 @@ namespace {
 // Fires `rays` through a grid with jumps and the same grid without, and
 // requires the same answers bit for bit; returns the cells each visited.
 struct JumpComparison {
+  JumpComparison(const Built& with_jumps, const Built& cell_by_cell) : jumps(with_jumps), plain(cell_by_cell) {}
   const Built& jumps;
   const Built& plain;
   TraversalScratch sj, sp;
@@ -328,7 +329,7 @@ TEST_CASE("grid: empty-space jumps find the cell-by-cell walk's hits, bit for bi
     const Built jumps(s, on), plain(s, off);
     REQUIRE(jumps.grid.info.bounds.lower == plain.grid.info.bounds.lower);
     REQUIRE(jumps.grid.cell_primitives == plain.grid.cell_primitives);
-    JumpComparison cmp{jumps, plain};
+    JumpComparison cmp(jumps, plain);
     const GridInfo& g = jumps.grid.info;
     Rng rng(seed);
     const Bounds3 around = grown(g.bounds, 0.3f);
@@ -382,7 +383,7 @@ TEST_CASE("grid: a jump never passes a primitive in the cell just beyond the emp
   }
   const Built jumps(s, on), plain(s, off);
   REQUIRE(jumps.grid.info.bounds.lower == g.bounds.lower);
-  JumpComparison cmp{jumps, plain};
+  JumpComparison cmp(jumps, plain);
   Rng rng(5);
   for (int i = 0; i < 2000; ++i) {
     const float x0 = grid_plane(g, 0, int(rng() % 64));
