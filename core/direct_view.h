@@ -22,7 +22,7 @@ struct DatabaseArrays {
   std::span<const Material> materials;
   std::span<const std::uint32_t> cell_start;       ///< cell_count()+1 offsets
   std::span<const std::uint32_t> cell_primitives;  ///< primitive ids
-  std::span<const std::uint8_t> empty_distance;    ///< cell_count() empty-space distances (Grid::empty_distance)
+  std::span<const std::uint8_t> empty_distance;    ///< cell_count() empty-space distances (Grid::empty_distance; required)
   GridInfo grid;
 
   /// The arrays of a host database and grid.

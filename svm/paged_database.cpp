@@ -85,6 +85,10 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
 }
 
 PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, std::uint32_t page_size) {
+  if (grid.empty_distance.size() != grid.info.cell_count())
+    throw std::invalid_argument(fmt::format("svm: the grid has {} empty-space distances for {} cells (not built by "
+                                            "core::build_grid?)",
+                                            grid.empty_distance.size(), grid.info.cell_count()));
   PagedImage image;
   image.layout = make_page_layout(db, grid, page_size);
   const PageLayout& l = image.layout;

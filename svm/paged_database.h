@@ -140,7 +140,8 @@ struct PagedImage {
 };
 
 /// Lays out `db` and `grid` in pages as described in the file comment.
-/// Same errors as make_page_layout.
+/// Same errors as make_page_layout, and std::invalid_argument when `grid`
+/// lacks its empty-space distances (core::build_grid computes them).
 PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, std::uint32_t page_size);
 
 }  // namespace raynode::svm

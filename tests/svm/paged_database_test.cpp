@@ -101,6 +101,13 @@ TEST_CASE("paged database: page sizes that are not a power of two or below one p
   CHECK_NOTHROW(build_paged_image(b.db, b.grid, 64));
 }
 
+TEST_CASE("paged database: a grid without its empty-space distances is refused, not read past its end") {
+  testing::BuiltScene b = testing::build_spd("rings", 1);
+  b.grid.empty_distance.clear();
+  CHECK_THROWS_WITH_AS(build_paged_image(b.db, b.grid, 1024), doctest::Contains("empty-space distances"),
+                       std::invalid_argument);
+}
+
 TEST_CASE("paged database: pages are dealt round robin, every page has exactly one home") {
   PageLayout l;
   l.pages = 103;
