@@ -68,6 +68,7 @@ struct RenderOptions {
   double timeout_s = 0;
   double stall_timeout_s = 60;
   double schedule_window_us = 200;
+  std::string mail_wakeups = "auto";
   std::string clock = "cpu";
   std::string work_requests = "ring";
   // svm
@@ -122,6 +123,7 @@ nodes::MachineParams machine_params(const RenderOptions& o) {
   m.timeout_s = o.timeout_s;
   m.stall_timeout_s = o.stall_timeout_s;
   m.schedule_window_s = o.schedule_window_us * 1e-6;
+  if (o.mail_wakeups != "auto") m.scheduled_mail = o.mail_wakeups == "scheduled";
   return m;
 }
 
@@ -610,6 +612,9 @@ void register_render_command(CLI::App& app) {
                 "Node modes: virtual-time scheduling window in microseconds: a node this far ahead of a waiting "
                 "one hands the CPU over (smaller = closer to a real parallel machine, more thread switches; "
                 "negative = off, the OS schedules the node threads)")
+      ->capture_default_str();
+  c->add_option("--mail-wakeups", o->mail_wakeups, kMailWakeupsHelp)
+      ->check(CLI::IsMember({"auto", "scheduled", "immediate"}))
       ->capture_default_str();
   c->add_option("--clock", o->clock,
                 "Node modes: what advances a node's virtual clock while it computes: cpu (its thread's CPU time) "

@@ -46,6 +46,9 @@ void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) 
   c.add_option("--schedule-window", o.schedule_window_us,
                "Virtual-time scheduling window in microseconds (negative = off, the OS schedules the node threads)")
       ->capture_default_str();
+  c.add_option("--mail-wakeups", o.mail_wakeups, kMailWakeupsHelp)
+      ->check(CLI::IsMember({"auto", "scheduled", "immediate"}))
+      ->capture_default_str();
   c.add_option("--clock", o.clock,
                "What advances a node's clock while it computes: cpu (its thread's CPU time) or model (a cost "
                "model of the work done: deterministic)")
@@ -101,6 +104,7 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
   }
   m.timeout_s = o.timeout_s;
   m.schedule_window_s = o.schedule_window_us * 1e-6;
+  if (o.mail_wakeups != "auto") m.scheduled_mail = o.mail_wakeups == "scheduled";
   try {
     m.network = nodes::make_network(o.network, o.network_scale,
                                     m.clock == nodes::ComputeClock::kModel ? &m.cost_model : nullptr);

@@ -34,6 +34,13 @@
 
 namespace raynode::apps {
 
+/// Help text of --mail-wakeups (render and the node benchmarks).
+inline constexpr const char* kMailWakeupsHelp =
+    "Node modes: how a node thread that holds no run permit is woken for its mail: scheduled (by the "
+    "virtual-time scheduler when a core is free, serving all its mail at once), immediate (by each "
+    "message) or auto (scheduled for dataflow, immediate for replicated and svm, whose nodes block for "
+    "each reply). Same virtual times and images; only the wall time differs";
+
 /// The machine and mode options as typed on the command line (strings where
 /// the text is parsed later, so errors can name the option).
 struct NodeRunOptions {
@@ -44,6 +51,7 @@ struct NodeRunOptions {
   std::string topology = "hypercube";   ///< hypercube, ring, torus
   std::string work_item = "3x3";        ///< replicated, svm: pixels per work item
   double schedule_window_us = 200;      ///< virtual-time scheduling window, microseconds
+  std::string mail_wakeups = "auto";   ///< --mail-wakeups: auto, scheduled or immediate
   std::string clock = "cpu";            ///< cpu or model (nodes::ComputeClock)
   std::string work_requests = "ring";   ///< ring or last-grantor (nodes::WorkRequestRoute)
   double timeout_s = 0;                 ///< per run, wall seconds; 0 = none

@@ -535,6 +535,8 @@ DataflowResult render_dataflow(const core::Database& db, const core::Grid& grid,
   nodes::MachineParams mp = params.machine;
   mp.max_payload = std::max<std::uint32_t>(mp.max_payload, 256);
   if (mp.mailbox_capacity == 0) mp.mailbox_capacity = kDefaultQueueCapacity;
+  // Rays are not waited for: serve them when a core is free (machine.h).
+  if (!mp.scheduled_mail) mp.scheduled_mail = true;
   nodes::Machine machine(mp);  // validates the node count, sets the default mailbox capacity
   const nodes::MachineParams& m = machine.params();
   const std::uint32_t n = m.nodes;

@@ -39,8 +39,9 @@ MachineState::MachineState(const MachineParams& p)
   for (std::uint32_t i = 0; i < p.nodes; ++i) finished[i].store(false, std::memory_order_relaxed);
   const std::uint32_t permits =
       p.run_permits > 0 ? p.run_permits : std::max(1u, std::thread::hardware_concurrency());
-  scheduler = std::make_unique<Scheduler>(p.nodes, permits, p.schedule_window_s,
-                                          [this](std::uint32_t node) { nodes[node]->mailbox().wake(); });
+  scheduler = std::make_unique<Scheduler>(
+      p.nodes, permits, p.schedule_window_s, [this](std::uint32_t node) { nodes[node]->mailbox().wake(); },
+      p.scheduled_mail.value_or(false));
 }
 
 MachineState::~MachineState() = default;
@@ -194,7 +195,7 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
     final_clock[slot] = ctx.now();
     ctx.note_wait(WaitReason::kDone);
     if (id != kHost) {
-      state.scheduler->release(id);
+      state.scheduler->retire(id);
       state.finished[id].store(true, std::memory_order_release);
     }
     {
@@ -260,6 +261,10 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
     report.parallel_time_s = std::max(report.parallel_time_s, nr.work_done_s >= 0 ? nr.work_done_s : nr.clock_s);
   }
   report.host = make_report(*state.host, final_clock[n]);
+  report.compute_grants = state.scheduler->compute_grants();
+  report.handoffs = state.scheduler->handoffs();
+  report.service_grants = state.scheduler->service_grants();
+  report.scheduled_mail = state.scheduler->scheduled_mail();
   report.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   return report;
 }
@@ -306,6 +311,10 @@ nlohmann::json RunReport::to_json(bool per_node) const {
   j["work_requests"] = work_requests;
   j["parallel_time_s"] = parallel_time_s;
   j["wall_s"] = wall_s;
+  j["scheduler"] = {{"compute_grants", compute_grants},
+                    {"handoffs", handoffs},
+                    {"service_grants", service_grants},
+                    {"mail", scheduled_mail ? "scheduled" : "immediate"}};
   std::size_t peak = 0;
   for (const NodeReport& r : nodes) peak = std::max(peak, r.memory_peak);
   j["memory_peak_bytes"] = peak;

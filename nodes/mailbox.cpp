@@ -1,3 +1,4 @@
+#include <algorithm>
 #include "nodes/mailbox.h"
 
 #include <fmt/core.h>
@@ -73,7 +74,7 @@ Mailbox::~Mailbox() {
   arena_->deallocate_bytes(slots_, bytes(), 64);
 }
 
-bool Mailbox::try_push(MessageHeader header, std::span<const std::span<const std::byte>> parts) {
+bool Mailbox::try_push(MessageHeader header, std::span<const std::span<const std::byte>> parts, bool* crowded) {
   std::size_t total = 0;
   for (const auto& p : parts) total += p.size();
   if (total > max_payload_)
@@ -107,6 +108,14 @@ bool Mailbox::try_push(MessageHeader header, std::span<const std::span<const std
   }
   // release: publishes the header and payload to the consumer's acquire load.
   s->seq.store(pos + 1, std::memory_order_release);
+
+  if (crowded) {
+    // Position q = pos - capacity/2 still published and unread means at
+    // least capacity/2 + 1 messages wait (a stale read only errs late).
+    const std::uint64_t half = std::max<std::uint64_t>(1, capacity_ / 2);
+    const std::uint64_t q = pos - half;
+    *crowded = pos >= half && slot(q)->seq.load(std::memory_order_relaxed) == q + 1;
+  }
 
   // Dekker with wait(): our fence orders the publication before reading
   // `sleeping_`; the consumer's fence orders its announcement before
@@ -159,6 +168,16 @@ void Mailbox::wait_quietly(const std::atomic<bool>& stop, double timeout_s) {
   // bumps it.
   const std::uint32_t w = wake_count_.load(std::memory_order_acquire);
   if (!nonempty_for_consumer() && !stop.load(std::memory_order_acquire)) futex_wait(wake_count_, w, timeout_s);
+}
+
+void Mailbox::wait_for_flags(const std::atomic<bool>& stop, double timeout_s, const std::atomic<bool>& a,
+                             const std::atomic<bool>& b) {
+  // As in wait(): a flag set before wake() bumps the counter is seen here
+  // if our read of w saw the bump; otherwise the bump ends the futex wait.
+  const std::uint32_t w = wake_count_.load(std::memory_order_acquire);
+  if (!stop.load(std::memory_order_acquire) && !a.load(std::memory_order_acquire) &&
+      !b.load(std::memory_order_acquire))
+    futex_wait(wake_count_, w, timeout_s);
 }
 
 void Mailbox::wake() {

@@ -56,7 +56,10 @@ class Mailbox {
   /// publishes it. Any thread; lock-free. Returns false, changing nothing,
   /// if the mailbox is full. Throws std::length_error if the parts exceed
   /// max_payload. header.payload_bytes is set from the parts.
-  bool try_push(MessageHeader header, std::span<const std::span<const std::byte>> parts);
+  /// `crowded`, when given, is set to whether the mailbox held at least
+  /// half its capacity after this push (the message pushed capacity/2
+  /// positions earlier is still unread): one extra load.
+  bool try_push(MessageHeader header, std::span<const std::span<const std::byte>> parts, bool* crowded = nullptr);
 
   /// Owner thread only: pops the oldest published message, copying its
   /// payload into `payload_out` (at least max_payload bytes). Returns false
@@ -75,6 +78,13 @@ class Mailbox {
   /// (the host): a busy producer then runs on instead of handing its core
   /// to the consumer per message.
   void wait_quietly(const std::atomic<bool>& stop, double timeout_s);
+  /// Owner thread only: blocks until `a` or `b` is set, `stop` is true, or
+  /// `timeout_s` seconds passed (0 = no timeout), whatever mail comes: the
+  /// setter must call wake() after setting its flag. Without announcing the
+  /// sleep, so producers never wake the owner (the virtual-time scheduler's
+  /// service permits do, scheduler.h). Spurious returns are allowed.
+  void wait_for_flags(const std::atomic<bool>& stop, double timeout_s, const std::atomic<bool>& a,
+                      const std::atomic<bool>& b);
   /// Any thread: wakes the owner if it waits. To stop a run, set the stop
   /// flag (release or stronger) first, then call wake().
   void wake();

@@ -167,8 +167,19 @@ void NodeContext::wait_for_mail(double timeout_s) {
     // from kHostNapMinS up to kHostNapMaxS.
     mailbox_->wait_quietly(machine_->stop, timeout_s > 0 ? std::min(timeout_s, host_nap_s_) : host_nap_s_);
     host_nap_s_ = mailbox_->has_message() ? kHostNapMinS : std::min(2 * host_nap_s_, kHostNapMaxS);
+  } else if (Scheduler& s = *machine_->scheduler;
+             s.scheduled_mail() && !s.granted_flag(id_).load(std::memory_order_relaxed)) {
+    // Mail is served with a service permit (scheduler.h): give ours back,
+    // then look at the mailbox. The fence pairs with the one a sender makes
+    // between publishing its message and reading our flags (push_to): either
+    // it sees that we hold no permit and asks the scheduler to serve us, or
+    // we see its message here and ask ourselves.
+    if (s.serving_flag(id_).load(std::memory_order_relaxed)) s.end_service(id_);
+    std::atomic_thread_fence(std::memory_order_seq_cst);
+    if (mailbox_->has_message()) s.note_mail(id_);
+    mailbox_->wait_for_flags(machine_->stop, timeout_s, s.granted_flag(id_), s.serving_flag(id_));
   } else {
-    mailbox_->wait(machine_->stop, timeout_s, &machine_->scheduler->granted_flag(id_));
+    mailbox_->wait(machine_->stop, timeout_s, &s.granted_flag(id_));
   }
   if (generic) note_wait(WaitReason::kNone);
   end_messaging();
@@ -203,7 +214,18 @@ bool NodeContext::push_to(NodeId dest, MessageHeader& header, std::span<const st
   if (dest != kHost && machine_->finished[dest].load(std::memory_order_acquire))
     throw std::logic_error(fmt::format("{} sent a {} message to node {}, which has finished", node_name(id_),
                                        message_type_name(header.type), dest));
-  return machine_->context(dest).mailbox().try_push(header, parts);
+  Scheduler& s = *machine_->scheduler;
+  bool crowded = false;
+  if (!machine_->context(dest).mailbox().try_push(header, parts, s.scheduled_mail() ? &crowded : nullptr))
+    return false;
+  // try_push ended with a seq_cst fence after publishing: the flags are read
+  // after it (see wait_for_mail). A mailbox half full is served at once (one
+  // permit more than K if need be), as the interrupt it would be on a real
+  // node, before senders find it full (dataflow then spills rays).
+  if (dest != kHost && s.scheduled_mail() && !s.granted_flag(dest).load(std::memory_order_relaxed) &&
+      !s.serving_flag(dest).load(std::memory_order_relaxed))
+    s.note_mail(dest, crowded);
+  return true;
 }
 
 bool NodeContext::try_send(NodeId dest, MessageType type, std::span<const std::span<const std::byte>> parts,
@@ -246,7 +268,11 @@ void NodeContext::send(NodeId dest, MessageType type, std::span<const std::span<
       if (on) self->note_wait(WaitReason::kNone);
     }
   } clear{this, generic};
+  // Its owner may sleep without a permit while every permit is held by a
+  // sender blocked like us: have the scheduler wake it now.
+  Scheduler& sched = *machine_->scheduler;
   while (true) {
+    if (dest != kHost && sched.scheduled_mail()) sched.note_mail(dest, true);
     ++counters_.full_mailbox_retries;
     while (backlog_.size() < park_limit_ && mailbox_->try_pop(h, receive_buffer_.data())) {
       backlog_.push_back(Parked{h, std::pmr::vector<std::byte>(receive_buffer_.data(),

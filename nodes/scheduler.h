@@ -32,8 +32,23 @@
 // `window` ahead of an active node gives its permit back. release when the
 // node blocks for mail or its work ends.
 //
-// Thread safety: all members are called by node threads; one mutex guards
-// the state (an O(nodes) scan per work unit).
+// Mail service (`scheduled_mail`; MachineParams::scheduled_mail says for
+// which modes): a node that holds no permit is not woken per message. A
+// sender that finds the destination without a permit calls note_mail(); the
+// node gets a service permit — one of the K, its role above unchanged — as
+// soon as one is free, before any queued compute, and serves everything
+// that came meanwhile in one wake-up. A message to a sleeping node then
+// costs a hand-over on a core that was going to switch anyway, not a
+// preemption of a computing node, and a node that several messages reach
+// while it sleeps serves them all at once. A mailbox found half full or
+// full is served at once, one permit beyond K if need be (note_mail's
+// `force`): its owner must drain it before senders block or spill. Virtual
+// time is untouched: a node without a permit does not move its clock, and
+// every message carries its own arrival stamp. end_service() (or any call
+// below) gives the service permit back.
+//
+// Thread safety: all members are called by node threads (and note_mail by
+// the host); one mutex guards the state (an O(nodes) scan per work unit).
 #pragma once
 
 #include <atomic>
@@ -51,9 +66,14 @@ class Scheduler {
   /// `wake(node)` wakes a node's mailbox wait. permits >= 1; window >= 0
   /// virtual seconds; permits = 0, window < 0 or a single node disables
   /// scheduling (every call grants).
-  Scheduler(std::uint32_t nodes, std::uint32_t permits, double window, std::function<void(std::uint32_t)> wake);
+  /// `scheduled_mail`: serve sleeping nodes' mail with service permits.
+  Scheduler(std::uint32_t nodes, std::uint32_t permits, double window, std::function<void(std::uint32_t)> wake,
+            bool scheduled_mail = false);
 
   bool enabled() const { return enabled_; }
+  /// Are sleeping nodes woken by the scheduler's service permits rather than
+  /// per message (see "Mail service" above)? Only when enabled().
+  bool scheduled_mail() const { return scheduled_mail_; }
   /// Does `node` hold a permit? If not, queues it with `clock` and takes a
   /// permit if one is free and the node may run; else returns false.
   /// `resume`: the node stopped inside a work unit (a page fault) and
@@ -67,14 +87,34 @@ class Scheduler {
   bool yield_point(std::uint32_t node, double clock);
   /// Gives up the permit and becomes inactive (blocking for mail, or done).
   void release(std::uint32_t node);
+  /// The node's thread has ended: release(), and no service permit is ever
+  /// granted to it again.
+  void retire(std::uint32_t node);
   /// Gives up the permit while awaiting the reply to a request: the node's
   /// `clock` still holds the others back until its next try_run().
   void await_reply(std::uint32_t node, double clock);
-  /// The flag a waiting node's mailbox wait also watches: set when a permit
-  /// is granted to it.
+  /// A message was put in the mailbox of `node`, which held no permit when
+  /// the sender looked: it gets a service permit when one is free (at once
+  /// if one is). No effect on a node that holds a permit. `force`: the
+  /// sender is blocked on the node's full mailbox, perhaps holding a permit
+  /// itself: the node gets a service permit at once, one more than K if
+  /// none is free, so that it drains its mailbox (no deadlock of full
+  /// mailboxes behind taken permits).
+  void note_mail(std::uint32_t node, bool force = false);
+  /// Gives a service permit back (the node served its mail and sleeps).
+  void end_service(std::uint32_t node);
+  /// The flag a waiting node's mailbox wait also watches: set when a
+  /// (compute) permit is granted to it.
   const std::atomic<bool>& granted_flag(std::uint32_t node) const { return granted_[node]; }
+  /// Set while the node holds a service permit.
+  const std::atomic<bool>& serving_flag(std::uint32_t node) const { return serving_[node]; }
 
+  /// Compute permits taken back from nodes a window ahead.
   std::uint64_t handoffs() const { return handoffs_; }
+  /// Compute permits granted to queued nodes (the first try_run's included).
+  std::uint64_t compute_grants() const { return compute_grants_; }
+  /// Service permits granted to sleeping nodes with mail.
+  std::uint64_t service_grants() const { return service_grants_; }
   /// One line on the state (free permits, running and queued nodes with
   /// their clocks), for the watchdog's error message.
   std::string describe();
@@ -86,19 +126,31 @@ class Scheduler {
   /// Hands free permits to eligible queued nodes, lowest clock first;
   /// appends them to `wake`. Lock held.
   void grant_eligible(std::vector<std::uint32_t>& wake);
-  /// If `node` runs, takes its permit back (it is no longer granted). Lock held.
+  /// Takes back whatever permit `node` holds (compute or service). Lock held.
   void take_permit_back(std::uint32_t node);
+  /// Grants `node` a compute (or else a service) permit. Lock held.
+  void grant(std::uint32_t node, bool compute, std::vector<std::uint32_t>& wake);
+  /// Forgets that `node` has mail waiting for service. Lock held.
+  void clear_mail(std::uint32_t node);
 
   bool enabled_;
+  bool scheduled_mail_;
   double window_;
   std::function<void(std::uint32_t)> wake_;
   std::mutex mutex_;
-  std::uint32_t free_permits_;
+  std::int64_t free_permits_;  ///< may go below 0 while forced service permits are out (note_mail)
   std::vector<State> state_;
   std::vector<double> clock_;
-  std::vector<char> resuming_;  ///< queued by try_run(..., resume = true)
-  std::unique_ptr<std::atomic<bool>[]> granted_;  ///< holds a permit (read lock-free by its owner)
+  std::vector<char> resuming_;      ///< queued by try_run(..., resume = true)
+  std::vector<char> mail_pending_;  ///< has mail, waits for a service permit
+  std::vector<char> retired_;       ///< its thread has ended
+  std::uint32_t mail_count_ = 0;    ///< nodes with mail_pending_
+  std::unique_ptr<std::atomic<bool>[]> granted_;  ///< holds a compute permit (read lock-free by its owner)
+  std::unique_ptr<std::atomic<bool>[]> serving_;  ///< holds a service permit (read lock-free by its owner)
+  std::uint32_t next_mail_ = 0;     ///< where the round-robin search for pending mail starts
   std::uint64_t handoffs_ = 0;
+  std::uint64_t compute_grants_ = 0;
+  std::uint64_t service_grants_ = 0;
 };
 
 }  // namespace raynode::nodes

@@ -37,6 +37,9 @@ for run in 1 2; do
   # The grid walk without empty-space jumps finds the same hits.
   render "seqnoskip_$run" --mode sequential --skip-empty off
   render "svm3noskip_$run" --mode svm --nodes 3 --cache 2 --skip-empty off
+  # Mail served by the scheduler instead of per message: same images.
+  render "rep7mail_$run" --mode replicated --nodes 7 --mail-wakeups scheduled
+  render "svm4mail_$run" --mode svm --nodes 4 --cache 2 --mail-wakeups scheduled
 done
 
 [ -s ref.png ] || { echo "FAIL: no reference image"; exit 1; }
@@ -50,6 +53,6 @@ for f in *.png; do
   fi
 done
 echo "compared $count images with the sequential one"
-[ "$count" -ge 22 ] || { echo "FAIL: only $count images rendered"; fail=1; }
+[ "$count" -ge 26 ] || { echo "FAIL: only $count images rendered"; fail=1; }
 [ "$fail" = 0 ] && echo "PASS"
 exit "$fail"

@@ -78,3 +78,58 @@ TEST_CASE("scheduler: a node awaiting a reply holds the others back; resuming in
   s.release(0);  // node 0 done: node 1 (0.5) is within the window of node 2 (0.4)
   CHECK(std::find(woken.begin(), woken.end(), 1u) != woken.end());
 }
+
+TEST_CASE("scheduler: a sleeping node's mail gets a service permit before queued compute, and gives it back") {
+  std::vector<std::uint32_t> woken;
+  Scheduler s(4, 1, 0.1, [&](std::uint32_t n) { woken.push_back(n); }, true);
+  REQUIRE(s.scheduled_mail());
+  CHECK(s.try_run(0, 0.0));        // node 0 computes with the only permit
+  CHECK_FALSE(s.try_run(1, 0.0));  // node 1 may run, but waits for the permit
+  s.release(2);
+  s.release(3);
+  woken.clear();
+  s.note_mail(2);  // no free permit: node 2 sleeps on
+  s.note_mail(2);  // more mail: still one request for service
+  s.note_mail(0);  // node 0 holds a permit and polls itself: nothing to do
+  CHECK(woken.empty());
+  CHECK_FALSE(s.serving_flag(2).load());
+  s.release(0);  // the permit goes to node 2's mail before node 1's compute
+  REQUIRE(woken.size() == 1);
+  CHECK(woken[0] == 2);
+  CHECK(s.serving_flag(2).load());
+  CHECK_FALSE(s.granted_flag(2).load());  // a service permit, not a compute one
+  CHECK_FALSE(s.granted_flag(1).load());
+  s.end_service(2);  // served: the permit goes on to node 1
+  CHECK_FALSE(s.serving_flag(2).load());
+  CHECK(woken.back() == 1);
+  CHECK(s.granted_flag(1).load());
+  CHECK(s.service_grants() == 1);
+  // A sender blocked on node 3's full mailbox forces service although the
+  // one permit is taken; it comes back at end_service without being handed on.
+  s.note_mail(3, true);
+  CHECK(s.serving_flag(3).load());
+  CHECK(s.granted_flag(1).load());
+  s.end_service(3);
+  CHECK(s.service_grants() == 2);
+  // A serving node that asks to compute trades its service permit in.
+  s.note_mail(2, true);
+  CHECK(s.serving_flag(2).load());
+  CHECK_FALSE(s.try_run(2, 0.5));  // not eligible: 0.5 > 0.0 + 0.1 (node 1 is active at 0)
+  CHECK_FALSE(s.serving_flag(2).load());
+  // A retired node's mail is never served.
+  s.retire(3);
+  s.release(1);  // the permit is free and node 2 is the only active node left: it runs
+  CHECK(s.granted_flag(2).load());
+  s.release(2);
+  s.note_mail(3);
+  CHECK_FALSE(s.serving_flag(3).load());
+}
+
+TEST_CASE("scheduler: mail service is off without scheduling") {
+  Scheduler a(4, 2, -1, [](std::uint32_t) {}, true);
+  CHECK_FALSE(a.scheduled_mail());
+  Scheduler b(4, 2, 0.1, [](std::uint32_t) {}, false);
+  CHECK_FALSE(b.scheduled_mail());
+  b.note_mail(1);
+  CHECK_FALSE(b.serving_flag(1).load());
+}

@@ -154,3 +154,50 @@ TEST_CASE("exhausted: dataflow with 1-slot queues and 64 nodes on a reflective s
   CHECK(r.host.spilled > 0);
   CHECK(r.host.forwarded == r.host.spilled);
 }
+
+TEST_CASE("exhausted: both mail wake-ups, 1-slot mailboxes included, give the sequential image in every mode") {
+  // Replicated and svm default to immediate wake-ups and dataflow to
+  // scheduled ones (machine.h): run each the other way. Scheduled mail must
+  // not deadlock behind full mailboxes whose owners wait for a permit held by
+  // a blocked sender (Scheduler::note_mail's force).
+  const testing::BuiltScene b = testing::build_spd("teapot", 2);
+  const core::RenderParams rp = tiny(16, 12);
+  const core::RenderResult seq = core::render(b.db, b.grid, rp);
+  for (std::uint32_t n : {2u, 7u, 32u}) {
+    for (std::uint32_t mailbox : {0u, 1u}) {
+      CAPTURE(n);
+      CAPTURE(mailbox);
+      nodes::ReplicatedParams rep;
+      rep.render = rp;
+      rep.machine = machine(n, mailbox);
+      rep.machine.scheduled_mail = true;
+      rep.item_w = rep.item_h = 1;
+      const nodes::ReplicatedResult r = nodes::render_replicated(b.db, b.grid, rep);
+      CHECK(same_bytes(r.render.color, seq.color));
+      CHECK(r.run.scheduled_mail);
+      CHECK(r.run.service_grants > 0);  // sleeping nodes' mail was served by the scheduler
+
+      svm::SvmParams sp;
+      sp.render = rp;
+      sp.machine = machine(n, mailbox);
+      sp.machine.scheduled_mail = true;
+      sp.cache_pages = 2;
+      sp.page_size = 128;
+      sp.item_w = sp.item_h = 1;
+      const svm::SvmResult s = svm::render_svm(b.db, b.grid, sp);
+      CHECK(same_bytes(s.render.color, seq.color));
+      check_aovs_equal(s.render, seq);
+      CHECK(s.run.service_grants > 0);
+
+      dataflow::DataflowParams dp;
+      dp.render = rp;
+      dp.machine = machine(n, mailbox);
+      dp.machine.node_memory = 16 * nodes::kMiB;
+      dp.machine.scheduled_mail = false;
+      const dataflow::DataflowResult d = dataflow::render_dataflow(b.db, b.grid, dp);
+      CHECK(max_diff(d.render.color, seq.color) <= 1e-5f);
+      CHECK_FALSE(d.run.scheduled_mail);
+      CHECK(d.run.service_grants == 0);
+    }
+  }
+}
