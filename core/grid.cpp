@@ -228,35 +228,45 @@ void compute_empty_distance(Grid& grid, bool skip_empty) {
   if (!skip_empty) return;
   // Two raster scans, forward then backward, each taking the minimum over
   // the 13 neighbours already scanned plus one: exact for the chessboard
-  // metric. Cells beyond the grid are empty, so they never lower a distance.
+  // metric. The scans run over a copy padded with one layer of cells at the
+  // cap on every side (cells beyond the grid are empty, so they never lower
+  // a distance), so the 13 neighbours are fixed offsets with no bounds test.
   const int rx = info.res[0], ry = info.res[1], rz = info.res[2];
+  const std::ptrdiff_t px = rx + 2, py = ry + 2, pz = rz + 2;
+  std::vector<std::uint8_t> p(std::size_t(px * py * pz), std::uint8_t(kMaxEmptyDistance));
+  const auto padded = [&](int x, int y, int z) { return ((z + 1) * py + (y + 1)) * px + (x + 1); };
+  for (int z = 0; z < rz; ++z)
+    for (int y = 0; y < ry; ++y)
+      for (int x = 0; x < rx; ++x) p[std::size_t(padded(x, y, z))] = d[info.cell_index(x, y, z)];
+  // The 13 neighbours before a cell in forward raster order: the previous
+  // plane (dz = -1, all 9), the previous row (dy = -1, dz = 0, all 3), the
+  // previous cell (dx = -1). The backward scan uses their negatives.
+  std::ptrdiff_t offsets[13];
+  int k = 0;
+  for (int dz = -1; dz <= 0; ++dz)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx)
+        if (!(dz == 0 && (dy > 0 || (dy == 0 && dx >= 0)))) offsets[k++] = (dz * py + dy) * px + dx;
+  std::uint8_t* const base = p.data();
   for (int pass = 0; pass < 2; ++pass) {
-    const int s = pass == 0 ? 1 : -1;
+    const std::ptrdiff_t s = pass == 0 ? 1 : -1;
     for (int zi = 0; zi < rz; ++zi) {
       const int z = s > 0 ? zi : rz - 1 - zi;
       for (int yi = 0; yi < ry; ++yi) {
         const int y = s > 0 ? yi : ry - 1 - yi;
-        for (int xi = 0; xi < rx; ++xi) {
-          const int x = s > 0 ? xi : rx - 1 - xi;
-          const std::uint32_t c = info.cell_index(x, y, z);
-          if (d[c] <= 1) continue;  // non-empty, or next to a non-empty cell already
-          int best = d[c];
-          // The 13 neighbours before (x, y, z) in this pass's order: the
-          // previous plane (dz = -s, all 9), the previous row (dy = -s, dz = 0,
-          // all 3), the previous cell (dx = -s).
-          for (int dz = -1; dz <= 0; ++dz)
-            for (int dy = -1; dy <= 1; ++dy)
-              for (int dx = -1; dx <= 1; ++dx) {
-                if (dz == 0 && (dy > 0 || (dy == 0 && dx >= 0))) continue;
-                const int nx = x + s * dx, ny = y + s * dy, nz = z + s * dz;
-                if (nx < 0 || ny < 0 || nz < 0 || nx >= rx || ny >= ry || nz >= rz) continue;
-                best = std::min(best, d[info.cell_index(nx, ny, nz)] + 1);
-              }
-          d[c] = std::uint8_t(best);
+        std::uint8_t* cell = base + padded(s > 0 ? 0 : rx - 1, y, z);
+        for (int xi = 0; xi < rx; ++xi, cell += s) {
+          if (*cell <= 1) continue;  // non-empty, or next to a non-empty cell already
+          int best = *cell;
+          for (const std::ptrdiff_t o : offsets) best = std::min(best, cell[s * o] + 1);
+          *cell = std::uint8_t(best);
         }
       }
     }
   }
+  for (int z = 0; z < rz; ++z)
+    for (int y = 0; y < ry; ++y)
+      for (int x = 0; x < rx; ++x) d[info.cell_index(x, y, z)] = p[std::size_t(padded(x, y, z))];
 }
 
 }  // namespace raynode::core
