@@ -74,7 +74,8 @@ Mailbox::~Mailbox() {
   arena_->deallocate_bytes(slots_, bytes(), 64);
 }
 
-bool Mailbox::try_push(MessageHeader header, std::span<const std::span<const std::byte>> parts, bool* crowded) {
+bool Mailbox::try_push(MessageHeader header, std::span<const std::span<const std::byte>> parts, bool* crowded,
+                       bool* woke) {
   std::size_t total = 0;
   for (const auto& p : parts) total += p.size();
   if (total > max_payload_)
@@ -121,12 +122,14 @@ bool Mailbox::try_push(MessageHeader header, std::span<const std::span<const std
   // `sleeping_`; the consumer's fence orders its announcement before
   // re-checking the queue. At least one side sees the other.
   std::atomic_thread_fence(std::memory_order_seq_cst);
-  if (sleeping_.load(std::memory_order_relaxed)) {
+  const bool wake = sleeping_.load(std::memory_order_relaxed);
+  if (wake) {
     // release: a consumer whose acquire load of the counter sees this bump
     // also sees the publication above.
     wake_count_.fetch_add(1, std::memory_order_release);
     futex_wake(wake_count_, 1);
   }
+  if (woke) *woke = wake;
   return true;
 }
 

@@ -58,8 +58,11 @@ class Mailbox {
   /// max_payload. header.payload_bytes is set from the parts.
   /// `crowded`, when given, is set to whether the mailbox held at least
   /// half its capacity after this push (the message pushed capacity/2
-  /// positions earlier is still unread): one extra load.
-  bool try_push(MessageHeader header, std::span<const std::span<const std::byte>> parts, bool* crowded = nullptr);
+  /// positions earlier is still unread): one extra load. `woke`, when
+  /// given, is set to whether the push woke the sleeping owner (a futex
+  /// system call).
+  bool try_push(MessageHeader header, std::span<const std::span<const std::byte>> parts, bool* crowded = nullptr,
+                bool* woke = nullptr);
 
   /// Owner thread only: pops the oldest published message, copying its
   /// payload into `payload_out` (at least max_payload bytes). Returns false

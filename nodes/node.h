@@ -248,7 +248,10 @@ class NodeContext {
 
  private:
   friend class Machine;
-  bool push_to(NodeId dest, MessageHeader& header, std::span<const std::span<const std::byte>> parts);
+  /// Pushes into dest's mailbox (false: full). `costly` is set when the
+  /// push did more than copy: a wake-up or a call into the scheduler.
+  bool push_to(NodeId dest, MessageHeader& header, std::span<const std::span<const std::byte>> parts,
+               bool& costly);
   void sync_compute();
   void end_messaging();
   Message take(const MessageHeader& h, std::span<const std::byte> payload);

@@ -102,14 +102,28 @@ std::uint32_t Pager::lru_victim() {
   }
 }
 
-const std::byte* Pager::slow_access(std::uint32_t page, std::uint32_t first) {
-  if (touched_n_ == kTouchedCapacity) flush_recency();
-  const std::uint32_t f = table_[page].frame;
-  if (f != kNotResident) return frames_ + (std::size_t(f) << layout_.page_shift);
-  // A page fetched and evicted again in this pixel (a tiny cache) is not in
-  // the touched list a second time: count its access here.
-  if (!first) ++stats_.cache_accesses;
-  return fault(page);
+const std::byte* Pager::first_access(std::uint32_t page) {
+  PageEntry& e = table_[page];
+  // Touched, then evicted, in this pixel (a tiny cache): not a new
+  // distinct page, and not in the touched list a second time.
+  const bool first = e.stamp != pixel_stamp_ + 1;
+  const std::uint32_t f = e.frame;
+  if (first) {
+    ++pixel_pages_;
+    if (f >= home_frames_) {  // a cache frame, or not resident
+      touched_[touched_n_++] = page;
+      if (touched_n_ == kTouchedCapacity) flush_recency();
+    }
+  }
+  const std::byte* bytes;
+  if (f != kNotResident) {
+    bytes = frames_ + (std::size_t(f) << layout_.page_shift);
+  } else {
+    if (!first) ++stats_.cache_accesses;  // counted here, as it is not in the touched list
+    bytes = fault(page);
+  }
+  table_[page].stamp = pixel_stamp_;  // resident from here until an eviction changes the stamp
+  return bytes;
 }
 
 void Pager::end_pixel() {
@@ -123,9 +137,10 @@ void Pager::end_pixel() {
 
 void Pager::begin_pixel() {
   end_pixel();
-  if (++pixel_stamp_ == 0) {  // wrapped: forget every stamp
+  pixel_stamp_ += 2;
+  if (pixel_stamp_ == 0) {  // wrapped: forget every stamp
     for (std::size_t p = 0; p < table_.size(); ++p) table_[p].stamp = 0;
-    pixel_stamp_ = 1;
+    pixel_stamp_ = 2;
   }
   pixel_pages_ = 0;
   in_pixel_ = true;
@@ -176,7 +191,10 @@ const std::byte* Pager::fault(std::uint32_t page) {
     victim = home_frames_ + cache_used_++;
   } else {
     victim = lru_victim();
-    table_[frame_page_[victim - home_frames_]].frame = kNotResident;
+    PageEntry& evicted = table_[frame_page_[victim - home_frames_]];
+    evicted.frame = kNotResident;
+    // Off access()'s fast path, remembering a touch in this pixel.
+    if (evicted.stamp == pixel_stamp_) evicted.stamp = pixel_stamp_ + 1;
     frame_page_[victim - home_frames_] = kNone;
     ++stats_.evictions;
   }

@@ -105,26 +105,24 @@ class Pager {
   /// resident. Every call counts as an access and marks the page touched in
   /// the current pixel (distinct pages per pixel).
   ///
-  /// The hot path is the page table alone, the same for one node as for
-  /// 64, with no branch but "resident?": the first touch of a page in a
-  /// pixel is found by the entry's pixel stamp, branch-free, and a
-  /// non-home page's first touch is noted in a short list; that list
-  /// updates the pages' LRU recency at the pixel's end or at the next fault
-  /// (flush_recency), before any victim is chosen, so evictions are those of
-  /// an LRU updated at each first touch. Throws what the messaging throws
-  /// (nodes::RunAborted) and std::logic_error on a protocol error.
+  /// The hot path is one page-table read and one compare, the same for
+  /// one node as for 64: an entry whose pixel stamp is the current pixel's
+  /// was touched in this pixel and is resident (an eviction changes the
+  /// evicted page's stamp), so its frame is returned at once. Any other
+  /// access is a page's first touch in the pixel (or a touch after its
+  /// eviction in this pixel): first_access() counts the distinct page,
+  /// notes a non-home page's first touch in a short list, and faults when
+  /// the page is not resident. That list updates the pages' LRU recency at
+  /// the pixel's end or at the next fault (flush_recency), before any
+  /// victim is chosen, so evictions are those of an LRU updated at each
+  /// first touch. Throws what the messaging throws (nodes::RunAborted) and
+  /// std::logic_error on a protocol error.
   const std::byte* access(std::uint32_t page) {
-    PageEntry& e = table_[page];
-    const std::uint32_t f = e.frame;
-    const std::uint32_t first = std::uint32_t(e.stamp != pixel_stamp_);
-    e.stamp = pixel_stamp_;
-    pixel_pages_ += first;
     ++stats_.accesses;
-    touched_[touched_n_] = page;  // kept only for a non-home page's first touch
-    touched_n_ += first & std::uint32_t(f >= home_frames_);
-    if ((f == kNotResident) | (touched_n_ == kTouchedCapacity)) [[unlikely]]
-      return slow_access(page, first);
-    return frames_ + (std::size_t(f) << layout_.page_shift);
+    const PageEntry e = table_[page];
+    if (e.stamp == pixel_stamp_) [[likely]]
+      return frames_ + (std::size_t(e.frame) << layout_.page_shift);
+    return first_access(page);
   }
   /// True if `p` (from access()) lies in a cache frame, which a later
   /// access may evict; home pages never move.
@@ -159,7 +157,9 @@ class Pager {
   static constexpr std::uint32_t kTouchedCapacity = kPagerTouchedCapacity;
   struct PageEntry {
     std::uint32_t frame = kNotResident;  ///< frame index, or kNotResident
-    std::uint32_t stamp = 0;             ///< pixel stamp of the last touch
+    /// Pixel stamp of the last touch (even); the stamp + 1 (odd) for a
+    /// page evicted after a touch in the current pixel; 0 never touched.
+    std::uint32_t stamp = 0;
   };
   struct alignas(64) Line {
     std::byte bytes[64];
@@ -172,8 +172,9 @@ class Pager {
     std::uint32_t stamp;
   };
 
-  /// access()'s rare path: the touched list is full, or a page fault.
-  [[gnu::noinline]] const std::byte* slow_access(std::uint32_t page, std::uint32_t first);
+  /// access()'s other path: the page's first touch in this pixel, or its
+  /// touch after an eviction in this pixel; faults if it is not resident.
+  [[gnu::noinline]] const std::byte* first_access(std::uint32_t page);
   /// Gives every page in the touched list a new LRU stamp, in first-touch
   /// order, and counts them as cache accesses.
   void flush_recency();
@@ -214,7 +215,7 @@ class Pager {
   std::uint32_t* list_buffer_ = nullptr;   ///< one page after the cache frames
   std::uint32_t touched_n_ = 0;
   std::uint32_t lru_clock_ = 0;  ///< last LRU stamp given
-  std::uint32_t pixel_stamp_ = 1;
+  std::uint32_t pixel_stamp_ = 2;  ///< even; advances by 2 per pixel
   std::uint32_t pixel_pages_ = 0;
   bool in_pixel_ = false;
   PagerStats stats_;

@@ -215,5 +215,18 @@ TEST_CASE("pager: a page fetched again within its pixel (1-page cache) counts on
     CHECK(pager.stats().cache_miss_ratio() == doctest::Approx(1.0));
     CHECK(pager.stats().pixel_pages == 3);
     CHECK(pager.stats().accesses == 4);
+    // Next pixel: A is resident, B (evicted in the last pixel) faults again
+    // and brings its own bytes, not the frame's last page.
+    pager.begin_pixel();
+    CHECK(std::memcmp(pager.access(A), image.page(A).data(), 64) == 0);
+    CHECK(pager.stats().misses == 3);
+    CHECK(std::memcmp(pager.access(B), image.page(B).data(), 64) == 0);
+    CHECK(std::memcmp(pager.access(B), image.page(B).data(), 64) == 0);
+    CHECK(pager.stats().misses == 4);
+    CHECK(std::memcmp(pager.access(A), image.page(A).data(), 64) == 0);
+    pager.end_pixel();
+    CHECK(pager.stats().misses == 5);
+    CHECK(pager.stats().pixel_pages == 3 + 2);
+    CHECK(pager.stats().accesses == 4 + 4);
   });
 }
