@@ -234,12 +234,11 @@ bool NodeContext::push_to(NodeId dest, MessageHeader& header, std::span<const st
 
 bool NodeContext::try_send(NodeId dest, MessageType type, std::span<const std::span<const std::byte>> parts,
                            double depart, std::uint32_t wire_bytes) {
-  // A block of pixels for the host, which is outside the emulated machine
-  // and keeps no clock that any figure depends on, leaves stamped with the
-  // clock of the node's last synchronisation: under the CPU clock that
-  // saves a system call per work item. The node's own clock loses nothing
-  // (the time is counted at its next synchronisation).
-  if (!(type == MessageType::kPixels && dest == kHost && !model_clock_)) sync_compute();
+  // The clock is read only when the stamp needs it (no `depart` given):
+  // under the CPU clock each reading is a system call. Skipping it loses
+  // nothing; the time is counted at the node's next synchronisation.
+  const bool stamp_now = depart < 0;
+  if (stamp_now) sync_compute();
   check_stop();
   MessageHeader h;
   h.type = type;
@@ -261,7 +260,10 @@ bool NodeContext::try_send(NodeId dest, MessageType type, std::span<const std::s
   // as a real node's send overhead: reading the CPU clock to exclude it
   // would cost more than it excludes. A wake-up, a call into the scheduler
   // or a full mailbox is the emulator's and is excluded.
-  if (costly || !ok) end_messaging();
+  if (costly || !ok) {
+    if (!stamp_now) sync_compute();  // the computing before the send is the node's, not the emulator's
+    end_messaging();
+  }
   return ok;
 }
 

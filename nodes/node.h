@@ -133,6 +133,9 @@ class NodeContext {
   /// The clock in virtual seconds, after adding the CPU time computed since
   /// the last sample.
   double now();
+  /// The clock as of its last synchronisation (now(), a send, a receive),
+  /// without reading the CPU clock: up to the CPU time computed since.
+  double last_synced_clock() const { return clock_; }
   /// Adds a modelled cost (e.g. serving a request) as busy time.
   void charge(double seconds);
   /// Records now() as the end of this node's work (the farm calls it when

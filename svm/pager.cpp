@@ -122,7 +122,7 @@ const std::byte* Pager::first_access(std::uint32_t page) {
     if (!first) ++stats_.cache_accesses;  // counted here, as it is not in the touched list
     bytes = fault(page);
   }
-  table_[page].stamp = pixel_stamp_;  // resident from here until an eviction changes the stamp
+  e.stamp = pixel_stamp_;  // resident from here until an eviction changes the stamp
   return bytes;
 }
 
