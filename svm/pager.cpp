@@ -29,10 +29,23 @@ PagerStats& PagerStats::operator+=(const PagerStats& o) {
 }
 
 std::size_t pager_table_bytes(const PageLayout& layout, std::uint32_t cache_pages) {
-  // + the list buffer, + alignment of the five arrays (64 B each at most)
+  // + the list buffer, + alignment of the six arrays (64 B each at most)
   return std::size_t(layout.pages) * 8 + std::size_t(cache_pages) * kPagerFrameOverheadBytes +
-         (std::size_t(kPagerTouchedCapacity) + 1) * 4 + layout.page_size + 5 * 64;
+         (2 * std::size_t(kPagerTouchedCapacity) + 1) * 4 + layout.page_size + 6 * 64;
 }
+
+namespace {
+/// `frames` frames of `layout`'s pages, or std::length_error past
+/// kPagerMaxFrameBytes.
+std::uint64_t checked_frames(const PageLayout& layout, std::uint64_t frames) {
+  const std::uint64_t bytes = frames * layout.page_size;
+  if (bytes > kPagerMaxFrameBytes)
+    throw std::length_error(fmt::format("svm: a node's frames take {} B ({} pages of {} B), more than the pager's "
+                                        "limit of {} B; use more nodes or a smaller --cache",
+                                        bytes, frames, layout.page_size, kPagerMaxFrameBytes));
+  return frames;
+}
+}  // namespace
 
 Pager::Pager(nodes::NodeContext& ctx, const PageLayout& layout, std::uint32_t cache_pages)
     : ctx_(ctx),
@@ -45,7 +58,9 @@ Pager::Pager(nodes::NodeContext& ctx, const PageLayout& layout, std::uint32_t ca
       frame_used_(ctx.arena(), cache_pages, "its LRU stamps"),
       events_(ctx.arena(), std::size_t(cache_pages) * 2, "its LRU stamp events"),
       touched_(ctx.arena(), kTouchedCapacity + 1, "its touched-page list"),
-      lines_(ctx.arena(), (std::size_t(home_frames_) + cache_pages + 1) * (layout.page_size / sizeof(Line)),
+      cleared_(ctx.arena(), kTouchedCapacity, "its list of pages touched in the pixel"),
+      lines_(ctx.arena(),
+             checked_frames(layout, std::uint64_t(home_frames_) + cache_pages + 1) * (layout.page_size / sizeof(Line)),
              "its home pages, page cache and list buffer") {
   static_assert(sizeof(PageEntry) == 8 && sizeof(std::uint32_t) * 2 + 2 * sizeof(LruEvent) == kPagerFrameOverheadBytes &&
                     kTouchedCapacity == kPagerTouchedCapacity,
@@ -54,7 +69,9 @@ Pager::Pager(nodes::NodeContext& ctx, const PageLayout& layout, std::uint32_t ca
   frames_ = reinterpret_cast<std::byte*>(lines_.data());
   cache_base_ = frames_ + (std::size_t(home_frames_) << layout.page_shift);
   list_buffer_ = reinterpret_cast<std::uint32_t*>(frames_ + (std::size_t(home_frames_ + cache_pages) << layout.page_shift));
-  for (std::uint32_t s = 0; s < home_frames_; ++s) table_[std::size_t(s) * nodes_ + ctx.id()].frame = s;
+  for (std::uint32_t s = 0; s < home_frames_; ++s)
+    table_[std::size_t(s) * nodes_ + ctx.id()].word = (s << layout.page_shift) | kUntouched;
+  home_end_ = home_frames_ << layout.page_shift;
   stats_.home_pages = home_frames_;
   stats_.cache_pages = cache_frames_;
 }
@@ -67,8 +84,8 @@ std::byte* Pager::home_frame(std::uint32_t page) {
 
 void Pager::flush_recency() {
   for (std::uint32_t i = 0; i < touched_n_; ++i) {
-    const std::uint32_t f = table_[touched_[i]].frame;  // non-home: a cache frame or not resident
-    if (f != kNotResident) stamp(f - home_frames_);
+    const PageEntry& e = table_[touched_[i]];  // non-home: a cache frame or not resident
+    if (e.word != kNotResident) stamp(frame_of(e) - home_frames_);
   }
   stats_.cache_accesses += touched_n_;
   touched_n_ = 0;
@@ -102,32 +119,42 @@ std::uint32_t Pager::lru_victim() {
   }
 }
 
+void Pager::untouch_all() {
+  for (std::uint32_t i = 0; i < cleared_n_; ++i) table_[cleared_[i]].word |= kUntouched;  // kNotResident stays
+  cleared_n_ = 0;
+}
+
 const std::byte* Pager::first_access(std::uint32_t page) {
-  PageEntry& e = table_[page];
-  // Touched, then evicted, in this pixel (a tiny cache): not a new
-  // distinct page, and not in the touched list a second time.
-  const bool first = e.stamp != pixel_stamp_ + 1;
-  const std::uint32_t f = e.frame;
+  // Locals and one entry pointer: the lists' stores could alias the entry.
+  PageEntry* const entry = &table_[page];
+  std::uint32_t word = entry->word;
+  // Touched before in this pixel (then evicted, or untouched early as the
+  // cleared list filled): not a new distinct page, and not in the touched
+  // list a second time.
+  const bool first = entry->stamp != pixel_stamp_;
   if (first) {
     ++pixel_pages_;
-    if (f >= home_frames_) {  // a cache frame, or not resident
+    entry->stamp = pixel_stamp_;
+    if (word >= home_end_) {  // a cache frame, or not resident
       touched_[touched_n_++] = page;
-      if (touched_n_ == kTouchedCapacity) flush_recency();
+      if (touched_n_ == kTouchedCapacity) [[unlikely]] flush_recency();
     }
   }
-  const std::byte* bytes;
-  if (f != kNotResident) {
-    bytes = frames_ + (std::size_t(f) << layout_.page_shift);
-  } else {
+  if (word == kNotResident) [[unlikely]] {
     if (!first) ++stats_.cache_accesses;  // counted here, as it is not in the touched list
-    bytes = fault(page);
+    fault(page);  // may evict other pages
+    word = entry->word;
   }
-  e.stamp = pixel_stamp_;  // resident from here until an eviction changes the stamp
-  return bytes;
+  if (cleared_n_ == kTouchedCapacity) [[unlikely]] untouch_all();
+  cleared_[cleared_n_++] = page;
+  word &= ~kUntouched;
+  entry->word = word;  // on the fast path until the pixel ends or an eviction
+  return frames_ + word;
 }
 
 void Pager::end_pixel() {
   flush_recency();
+  untouch_all();
   if (!in_pixel_) return;
   ++stats_.pixels;
   stats_.pixel_pages += pixel_pages_;
@@ -137,10 +164,9 @@ void Pager::end_pixel() {
 
 void Pager::begin_pixel() {
   end_pixel();
-  pixel_stamp_ += 2;
-  if (pixel_stamp_ == 0) {  // wrapped: forget every stamp
+  if (++pixel_stamp_ == 0) {  // wrapped: forget every stamp
     for (std::size_t p = 0; p < table_.size(); ++p) table_[p].stamp = 0;
-    pixel_stamp_ = 2;
+    pixel_stamp_ = 1;
   }
   pixel_pages_ = 0;
   in_pixel_ = true;
@@ -191,10 +217,8 @@ const std::byte* Pager::fault(std::uint32_t page) {
     victim = home_frames_ + cache_used_++;
   } else {
     victim = lru_victim();
-    PageEntry& evicted = table_[frame_page_[victim - home_frames_]];
-    evicted.frame = kNotResident;
-    // Off access()'s fast path, remembering a touch in this pixel.
-    if (evicted.stamp == pixel_stamp_) evicted.stamp = pixel_stamp_ + 1;
+    // Off access()'s fast path; its stamp remembers a touch in this pixel.
+    table_[frame_page_[victim - home_frames_]].word = kNotResident;
     frame_page_[victim - home_frames_] = kNone;
     ++stats_.evictions;
   }
@@ -247,7 +271,7 @@ const std::byte* Pager::fault(std::uint32_t page) {
   ctx_.advance_to(arrival, nodes::WaitKind::kCommunication);
   frame_page_[victim - home_frames_] = page;
   stamp(victim - home_frames_);
-  table_[page].frame = victim;
+  table_[page].word = (victim << layout_.page_shift) | kUntouched;
   // Compute again only with a run permit, answering requests meanwhile.
   while (released && !ctx_.try_resume()) {
     ctx_.wait_for_mail(0);

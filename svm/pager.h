@@ -27,8 +27,9 @@
 //
 // Memory (all in the node's arena): the page table (8 bytes per page of the
 // whole database), the home pages, the cache frames, 24 bytes per cache
-// frame (its page, its LRU stamp, two queued stamp events) and the touched
-// list (1 KiB).
+// frame (its page, its LRU stamp, two queued stamp events) and two page
+// lists of the current pixel (1 KiB each). A node's frames (home pages,
+// cache, list buffer) lie within 4 GiB: the page table holds 32-bit offsets.
 //
 // Thread safety: owner node thread only (setup runs on the host's thread
 // before the node starts).
@@ -79,19 +80,24 @@ struct PagerStats {
 /// noted before their LRU update).
 inline constexpr std::uint32_t kPagerTouchedCapacity = 256;
 
+/// Most bytes of one node's frames (home pages, cache, list buffer): the
+/// page table holds 32-bit frame offsets.
+inline constexpr std::uint64_t kPagerMaxFrameBytes = std::uint64_t(1) << 32;
+
 /// Arena bytes a pager keeps per cache frame besides the frame: its page,
 /// its LRU stamp and two queued stamp events.
 inline constexpr std::size_t kPagerFrameOverheadBytes = 24;
 
 /// Arena bytes a pager needs besides its frames: page table, LRU stamps,
-/// touched list and list buffer.
+/// page lists and list buffer.
 std::size_t pager_table_bytes(const PageLayout& layout, std::uint32_t cache_pages);
 
 class Pager {
  public:
   /// Takes the page table, the node's home frames and `cache_pages` cache
-  /// frames from ctx's arena (throws nodes::ArenaExhausted). The home
-  /// frames are zero until load_home_page().
+  /// frames from ctx's arena (throws nodes::ArenaExhausted;
+  /// std::length_error when the frames, with the list buffer, exceed
+  /// kPagerMaxFrameBytes). The home frames are zero until load_home_page().
   Pager(nodes::NodeContext& ctx, const PageLayout& layout, std::uint32_t cache_pages);
   Pager(const Pager&) = delete;
   Pager& operator=(const Pager&) = delete;
@@ -105,23 +111,23 @@ class Pager {
   /// resident. Every call counts as an access and marks the page touched in
   /// the current pixel (distinct pages per pixel).
   ///
-  /// The hot path is one page-table read and one compare, the same for
-  /// one node as for 64: an entry whose pixel stamp is the current pixel's
-  /// was touched in this pixel and is resident (an eviction changes the
-  /// evicted page's stamp), so its frame is returned at once. Any other
-  /// access is a page's first touch in the pixel (or a touch after its
-  /// eviction in this pixel): first_access() counts the distinct page,
-  /// notes a non-home page's first touch in a short list, and faults when
-  /// the page is not resident. That list updates the pages' LRU recency at
-  /// the pixel's end or at the next fault (flush_recency), before any
-  /// victim is chosen, so evictions are those of an LRU updated at each
-  /// first touch. Throws what the messaging throws (nodes::RunAborted) and
-  /// std::logic_error on a protocol error.
+  /// The hot path is one page-table read and one bit test, the same for
+  /// one node as for 64: an entry whose word has its low bit clear was
+  /// touched in this pixel and is resident, and the word is its frame's
+  /// byte offset, so the frame is returned at once. Any other access is a
+  /// page's first touch in the pixel (or a touch after its eviction in this
+  /// pixel): first_access() counts the distinct page, notes a non-home
+  /// page's first touch in a short list, faults when the page is not
+  /// resident, and clears the bit until the pixel ends. The list updates the
+  /// pages' LRU recency at the pixel's end or at the next fault
+  /// (flush_recency), before any victim is chosen, so evictions are those
+  /// of an LRU updated at each first touch. Throws what the messaging
+  /// throws (nodes::RunAborted) and std::logic_error on a protocol error.
   const std::byte* access(std::uint32_t page) {
     ++stats_.accesses;
-    const PageEntry e = table_[page];
-    if (e.stamp == pixel_stamp_) [[likely]]
-      return frames_ + (std::size_t(e.frame) << layout_.page_shift);
+    const std::uint32_t word = table_[page].word;
+    if (!(word & kUntouched)) [[likely]]
+      return frames_ + word;
     return first_access(page);
   }
   /// True if `p` (from access()) lies in a cache frame, which a later
@@ -148,17 +154,23 @@ class Pager {
   const PageLayout& layout() const { return layout_; }
   const PagerStats& stats() const { return stats_; }
   /// Is `page` resident (home or cached)? For tests.
-  bool resident(std::uint32_t page) const { return table_[page].frame != kNotResident; }
+  bool resident(std::uint32_t page) const { return table_[page].word != kNotResident; }
 
  private:
+  /// PageEntry::word of a page that is not resident (odd: off the fast path).
   static constexpr std::uint32_t kNotResident = 0xffffffffu;
+  /// PageEntry::word's low bit: the page was not touched in this pixel.
+  static constexpr std::uint32_t kUntouched = 1;
   static constexpr std::uint32_t kNone = 0xffffffffu;
-  /// First touches of non-home pages noted before the LRU is updated.
+  /// First touches of non-home pages noted before the LRU is updated; and
+  /// pages whose word had kUntouched cleared in this pixel.
   static constexpr std::uint32_t kTouchedCapacity = kPagerTouchedCapacity;
   struct PageEntry {
-    std::uint32_t frame = kNotResident;  ///< frame index, or kNotResident
-    /// Pixel stamp of the last touch (even); the stamp + 1 (odd) for a
-    /// page evicted after a touch in the current pixel; 0 never touched.
+    /// Resident: the byte offset of its frame from frames_ (a multiple of
+    /// 64), | kUntouched unless touched in this pixel; else kNotResident.
+    std::uint32_t word = kNotResident;
+    /// Pixel stamp of the last first touch (distinct pages per pixel); 0
+    /// never touched.
     std::uint32_t stamp = 0;
   };
   struct alignas(64) Line {
@@ -177,7 +189,13 @@ class Pager {
   [[gnu::noinline]] const std::byte* first_access(std::uint32_t page);
   /// Gives every page in the touched list a new LRU stamp, in first-touch
   /// order, and counts them as cache accesses.
-  void flush_recency();
+  [[gnu::noinline]] void flush_recency();
+  /// Sets kUntouched again in every page of the cleared list (the pixel's
+  /// end, or the list is full: those pages take first_access() again,
+  /// which knows them by their stamp).
+  [[gnu::noinline]] void untouch_all();
+  /// The frame index of resident page entry `e`.
+  std::uint32_t frame_of(const PageEntry& e) const { return (e.word & ~kUntouched) >> layout_.page_shift; }
   /// Gives cache frame `f` (index among the cache frames) a new LRU stamp.
   void stamp(std::uint32_t f) {
     frame_used_[f] = ++lru_clock_;
@@ -201,6 +219,7 @@ class Pager {
   PageLayout layout_;
   std::uint32_t nodes_;
   std::uint32_t home_frames_;
+  std::uint32_t home_end_ = 0;  ///< byte offset of the first cache frame: words below it are home pages
   std::uint32_t cache_frames_;
   std::uint32_t cache_used_ = 0;
   nodes::ArenaArray<PageEntry> table_;
@@ -209,13 +228,15 @@ class Pager {
   nodes::ArenaArray<LruEvent> events_;           ///< ring of stamp events, oldest first (2 per cache frame)
   std::size_t events_head_ = 0, events_n_ = 0;
   nodes::ArenaArray<std::uint32_t> touched_;     ///< kTouchedCapacity + 1 slots
+  nodes::ArenaArray<std::uint32_t> cleared_;     ///< pages with kUntouched cleared, kTouchedCapacity slots
   nodes::ArenaArray<Line> lines_;
   std::byte* frames_ = nullptr;
   const std::byte* cache_base_ = nullptr;  ///< first cache frame
   std::uint32_t* list_buffer_ = nullptr;   ///< one page after the cache frames
   std::uint32_t touched_n_ = 0;
+  std::uint32_t cleared_n_ = 0;
   std::uint32_t lru_clock_ = 0;  ///< last LRU stamp given
-  std::uint32_t pixel_stamp_ = 2;  ///< even; advances by 2 per pixel
+  std::uint32_t pixel_stamp_ = 1;  ///< advances by 1 per pixel; 0 = never
   std::uint32_t pixel_pages_ = 0;
   bool in_pixel_ = false;
   PagerStats stats_;

@@ -105,7 +105,9 @@ std::uint32_t cache_frames_for(const PageLayout& layout, const SvmParams& params
         nodes::format_bytes(layout.bytes()), layout.pages, ps, n, nodes::format_bytes(budget),
         nodes::format_bytes(hold), nodes::format_bytes(fixed), n > 1 ? ", and one cache page" : ""));
   }
-  const std::size_t fit = (budget - fixed - home_bytes) / frame_cost;
+  // Frames beyond the pager's 4 GiB (with the list buffer) are never given.
+  const std::size_t addressable = kPagerMaxFrameBytes / ps > home + 1 ? kPagerMaxFrameBytes / ps - home - 1 : 0;
+  const std::size_t fit = std::min((budget - fixed - home_bytes) / frame_cost, addressable);
   const bool explicit_cache = params.cache_pages > 0 || params.cache_fraction > 0;
   if (!explicit_cache) return std::uint32_t(std::min<std::size_t>(fit, useful));
   std::uint64_t want = params.cache_pages;
