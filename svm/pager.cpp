@@ -125,6 +125,23 @@ void Pager::untouch_all() {
 }
 
 const std::byte* Pager::first_access(std::uint32_t page) {
+  PageEntry* const entry = &table_[page];
+  const std::uint32_t word = entry->word;
+  // The common case, with no call (so no registers to save): a resident
+  // page's first touch in this pixel, with room in both lists.
+  if (entry->stamp != pixel_stamp_ && word != kNotResident && cleared_n_ < kTouchedCapacity &&
+      touched_n_ + 1 < kTouchedCapacity) [[likely]] {
+    ++pixel_pages_;
+    entry->stamp = pixel_stamp_;
+    if (word >= home_end_) touched_[touched_n_++] = page;  // a cache frame
+    cleared_[cleared_n_++] = page;
+    entry->word = word & ~kUntouched;
+    return frames_ + (word & ~kUntouched);
+  }
+  return touch(page);
+}
+
+const std::byte* Pager::touch(std::uint32_t page) {
   // Locals and one entry pointer: the lists' stores could alias the entry.
   PageEntry* const entry = &table_[page];
   std::uint32_t word = entry->word;

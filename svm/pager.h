@@ -187,6 +187,9 @@ class Pager {
   /// access()'s other path: the page's first touch in this pixel, or its
   /// touch after an eviction in this pixel; faults if it is not resident.
   [[gnu::noinline]] const std::byte* first_access(std::uint32_t page);
+  /// first_access() in every case (a fault, a touch after an eviction or
+  /// an early untouch, a full list).
+  [[gnu::noinline]] const std::byte* touch(std::uint32_t page);
   /// Gives every page in the touched list a new LRU stamp, in first-touch
   /// order, and counts them as cache accesses.
   [[gnu::noinline]] void flush_recency();
