@@ -230,3 +230,31 @@ TEST_CASE("pager: a page fetched again within its pixel (1-page cache) counts on
     CHECK(pager.stats().accesses == 4 + 4);
   });
 }
+
+TEST_CASE("pager: a pixel touching more pages than its lists hold counts each once and reads each right") {
+  // The list of pages touched in the pixel (kPagerTouchedCapacity) is
+  // emptied when full, in the middle of the pixel: its pages leave the fast
+  // path early and must come back through the page table without being
+  // counted again.
+  const testing::BuiltScene b = testing::build_spd("teapot", 8);
+  const PagedImage image = build_paged_image(b.db, b.grid, 64);
+  const std::uint32_t n = kPagerTouchedCapacity + 57;
+  REQUIRE(image.layout.pages > 2 * n);
+  auto home = [](std::uint32_t k) { return 2 * k; };  // pages homed at node 0
+  with_two_nodes(image, 1, [&](Pager& pager, nodes::NodeContext&) {
+    bool same = true;
+    for (int pixel = 0; pixel < 2; ++pixel) {
+      pager.begin_pixel();
+      for (int round = 0; round < 2; ++round)
+        for (std::uint32_t k = 0; k < n; ++k)
+          same &= std::memcmp(pager.access(home(k)), image.page(home(k)).data(), 64) == 0;
+      CHECK(pager.pixel_pages() == n);
+    }
+    pager.end_pixel();
+    CHECK(same);
+    CHECK(pager.stats().accesses == 4 * n);
+    CHECK(pager.stats().pixel_pages == 2 * n);
+    CHECK(pager.stats().misses == 0);
+    CHECK(pager.stats().cache_accesses == 0);
+  });
+}
