@@ -76,8 +76,9 @@ struct PagerStats {
 };
 
 
-/// Length of a pager's touched list (first touches of non-home pages
-/// noted before their LRU update).
+/// Length of a pager's two page lists: its touched list (first touches of
+/// non-home pages noted before their LRU update) and its list of pages
+/// taken off access()'s fast path at the pixel's end.
 inline constexpr std::uint32_t kPagerTouchedCapacity = 256;
 
 /// Most bytes of one node's frames (home pages, cache, list buffer): the
