@@ -116,8 +116,9 @@ class Pager {
   /// one node as for 64: an entry whose word has its low bit clear was
   /// touched in this pixel and is resident, and the word is its frame's
   /// byte offset, so the frame is returned at once. Any other access is a
-  /// page's first touch in the pixel (or a touch after its eviction in this
-  /// pixel): first_access() counts the distinct page, notes a non-home
+  /// page's first touch in the pixel (or a touch after its eviction, or
+  /// after a full list took it off the fast path, in this pixel):
+  /// first_access() counts the distinct page, notes a non-home
   /// page's first touch in a short list, faults when the page is not
   /// resident, and clears the bit until the pixel ends. The list updates the
   /// pages' LRU recency at the pixel's end or at the next fault
@@ -186,7 +187,9 @@ class Pager {
   };
 
   /// access()'s other path: the page's first touch in this pixel, or its
-  /// touch after an eviction in this pixel; faults if it is not resident.
+  /// touch after an eviction or an early untouch (a full list) in this
+  /// pixel. Handles here only a resident page's first touch with room in
+  /// both lists; every other case goes to touch().
   [[gnu::noinline]] const std::byte* first_access(std::uint32_t page);
   /// first_access() in every case (a fault, a touch after an eviction or
   /// an early untouch, a full list).
