@@ -28,6 +28,7 @@ struct BenchOptions {
   int repeat = 3;
   float density = core::GridParams{}.density;
   bool skip_empty = core::GridParams{}.skip_empty;
+  std::uint32_t pack_min = core::kDefaultPackMin;  ///< --pack-cells; 0 = off
   bool json = false;
 };
 
@@ -94,7 +95,9 @@ void run_bench(const BenchOptions& o) {
     const double build_s = best_seconds(1, [&] { grid = core::build_grid(db, gp); });
     const core::EmbreeScene embree(db);
     const RaySet rs = make_rays(db, grid, o.width, o.height);
-    const core::DirectView dv(db, grid);
+    core::CellBlocks blocks;
+    if (o.pack_min > 0) blocks = core::build_cell_blocks(db, grid, o.pack_min);
+    const core::DirectView dv(db, grid, o.pack_min > 0 ? &blocks : nullptr);
     core::TraversalScratch scratch;
     std::uint64_t sink = 0;
     // Grid and Embree runs alternate, so that a burst of load on a noisy
@@ -123,6 +126,8 @@ void run_bench(const BenchOptions& o) {
                         {"grid_references", grid.references()},
                         {"grid_build_s", build_s},
                         {"skip_empty", o.skip_empty},
+                        {"pack_cells", o.pack_min},
+                        {"packed_blocks", blocks.blocks.size()},
                         {"rays", std::uint64_t(n)},
                         {"closest_rays", rs.closest.size()},
                         {"shadow_rays", rs.shadow.size()},
@@ -162,6 +167,7 @@ void register_bench_command(CLI::App& app) {
   c->add_option("--repeat", o->repeat, "Runs per accelerator; the best is kept")->check(CLI::Range(1, 100));
   c->add_option("--grid-density", o->density, "Grid cells per primitive")->check(CLI::Range(0.01f, 1000.0f));
   add_skip_empty_option(*c, o->skip_empty);
+  add_pack_cells_option(*c, o->pack_min);
   c->add_flag("--json", o->json, "Print JSON");
   c->callback([o] { run_bench(*o); });
 }

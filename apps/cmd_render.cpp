@@ -51,6 +51,7 @@ struct RenderOptions {
   std::string mode = "sequential";
   std::string accel = "grid";
   bool skip_empty = core::GridParams{}.skip_empty;
+  std::uint32_t pack_min = core::kDefaultPackMin;  ///< --pack-cells; 0 = off
   int nodes = 1;
   int width = 0, height = 0;
   int spp = 1;
@@ -242,16 +243,23 @@ class OutputFiles {
 struct Accelerator {
   std::optional<core::Grid> grid;             ///< --accel grid
   std::unique_ptr<core::EmbreeScene> embree;  ///< --accel embree
+  std::optional<core::CellBlocks> blocks;     ///< the grid's packed cells (in-process modes, --pack-cells)
   double build_s = 0;                         ///< wall seconds to build it
 };
 
-Accelerator build_accelerator(const std::string& accel, bool skip_empty, const core::Database& db) {
+/// Builds --accel's structure for `o`; the grid's packed cells only for the
+/// in-process modes (the node modes trace the paper's per-primitive lists).
+Accelerator build_accelerator(const RenderOptions& o, const core::Database& db) {
   Accelerator a;
   const auto t0 = std::chrono::steady_clock::now();
   core::GridParams gp;
-  gp.skip_empty = skip_empty;
-  if (accel == "embree") a.embree = std::make_unique<core::EmbreeScene>(db);
-  else a.grid = core::build_grid(db, gp);
+  gp.skip_empty = o.skip_empty;
+  if (o.accel == "embree") {
+    a.embree = std::make_unique<core::EmbreeScene>(db);
+  } else {
+    a.grid = core::build_grid(db, gp);
+    if (o.pack_min > 0 && !is_node_mode(o.mode)) a.blocks = core::build_cell_blocks(db, *a.grid, o.pack_min);
+  }
   a.build_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return a;
 }
@@ -330,7 +338,8 @@ core::RenderResult render_frame(const RenderOptions& o, const core::Database& db
                                    o.nodes, o.mode));
     params.mode = core::parse_render_mode(o.mode);
     if (accel.embree) return core::render_image(core::EmbreeView(db, *accel.embree), db, params);
-    return core::render_image(core::DirectView(db, *accel.grid), db, params);
+    return core::render_image(core::DirectView(db, *accel.grid, accel.blocks ? &*accel.blocks : nullptr), db,
+                              params);
   }
   throw UsageError("unknown render mode '" + o.mode + "'");
 }
@@ -373,7 +382,7 @@ void run_render(const RenderOptions& o) {
                                                       : fmt::format(" ({} degenerate polygon{} dropped)", dropped,
                                                                     dropped == 1 ? "" : "s")));
   }
-  const Accelerator accel = build_accelerator(o.accel, o.skip_empty, db);
+  const Accelerator accel = build_accelerator(o, db);
 
   const core::View cam_view = [&] {
     try {
@@ -475,6 +484,8 @@ void run_render(const RenderOptions& o) {
     if (accel.grid) {
       j["grid_resolution"] = {accel.grid->info.res[0], accel.grid->info.res[1], accel.grid->info.res[2]};
       j["skip_empty"] = o.skip_empty;
+      j["pack_cells"] = accel.blocks ? accel.blocks->min_triangles : 0;
+      j["packed_blocks"] = accel.blocks ? accel.blocks->blocks.size() : 0;
     }
     for (const auto& [name, path] : aov_files) j["aov_outputs"][name] = path;
     if (!extras.nodes.is_null()) {
@@ -540,6 +551,7 @@ void register_render_command(CLI::App& app) {
       ->check(CLI::IsMember({"grid", "embree"}))
       ->capture_default_str();
   add_skip_empty_option(*c, o->skip_empty);
+  add_pack_cells_option(*c, o->pack_min);
   c->add_option("--width", o->width, "Image width in pixels (default: the scene's view)")->check(CLI::Range(1, 16384));
   c->add_option("--height", o->height, "Image height in pixels (default: the scene's view)")
       ->check(CLI::Range(1, 16384));

@@ -61,6 +61,7 @@ void run_validate(const ValidateOptions& o) {
     j["tessellate"] = o.source.tessellate;
     j["primitives"] = db.primitives.size();
     j["grid_resolution"] = {grid.info.res[0], grid.info.res[1], grid.info.res[2]};
+    j["pack_cells"] = o.params.pack_min;
     j["t_rel_tolerance"] = o.params.t_rel;
     j["primary"] = counts_json(r.primary);
     j["random"] = counts_json(r.random);
@@ -122,6 +123,7 @@ void register_validate_command(CLI::App& app) {
   c->add_option("--grid-density", o->density, "Grid cells per primitive (resolution heuristic)")
       ->check(CLI::Range(0.01f, 1000.0f));
   add_skip_empty_option(*c, o->skip_empty);
+  add_pack_cells_option(*c, o->params.pack_min);
   c->callback([o] { run_validate(*o); });
 }
 

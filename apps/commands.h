@@ -6,6 +6,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 
@@ -25,6 +26,11 @@ void add_scene_options(CLI::App& cmd, core::SceneSource& source);
 /// Adds --skip-empty on|off (core::GridParams::skip_empty) to a subcommand;
 /// `skip_empty` must outlive the parse.
 void add_skip_empty_option(CLI::App& cmd, bool& skip_empty);
+
+/// Adds --pack-cells N|off (core/cell_blocks.h: cells listing at least N
+/// triangles are tested in SIMD blocks; 0 = off) to a subcommand;
+/// `pack_min` must outlive the parse.
+void add_pack_cells_option(CLI::App& cmd, std::uint32_t& pack_min);
 
 void register_scene_commands(CLI::App& app);
 void register_validate_command(CLI::App& app);

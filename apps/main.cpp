@@ -7,6 +7,7 @@
 #include <exception>
 
 #include "apps/commands.h"
+#include "core/cell_blocks.h"
 #include "core/nff.h"
 
 namespace raynode::apps {
@@ -27,6 +28,17 @@ void add_skip_empty_option(CLI::App& cmd, bool& skip_empty) {
          "Grid walk: on = jump over empty space (Chebyshev distances kept in empty cells); off = step cell by "
          "cell, as the paper's tracer (same hits, more cells visited) [default: on]")
       ->check(CLI::IsMember({"on", "off"}));
+}
+
+void add_pack_cells_option(CLI::App& cmd, std::uint32_t& pack_min) {
+  cmd.add_option_function<std::string>(
+         "--pack-cells",
+         [&pack_min](const std::string& v) { pack_min = v == "off" ? 0 : std::uint32_t(std::stoul(v)); },
+         fmt::format("In-process grid tracing (sequential, shared, bench, validate): cells listing at least N "
+                     "triangles keep them in SIMD blocks of {} and are tested a block at a time (same hits); off = "
+                     "every cell walks its primitive list, as the node modes do [default: {}]",
+                     raynode::core::kBlockLanes, raynode::core::kDefaultPackMin))
+      ->check(CLI::IsMember({"off"}) | CLI::Range(1, 1 << 20));
 }
 
 }  // namespace raynode::apps

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <span>
 
+#include "core/cell_blocks.h"
 #include "core/database.h"
 #include "core/grid.h"
 
@@ -15,7 +16,8 @@ namespace raynode::core {
 
 /// The per-object arrays a tracer reads, wherever they live (the host's
 /// vectors or a node's arena): primitives, `pp` vertex normals, materials,
-/// and the grid's CSR cell lists with its O(1) description.
+/// and the grid's CSR cell lists with its O(1) description; optionally the
+/// grid's packed cells (cell_blocks.h).
 struct DatabaseArrays {
   std::span<const Primitive> primitives;
   std::span<const TriangleNormals> vertex_normals;
@@ -24,22 +26,33 @@ struct DatabaseArrays {
   std::span<const std::uint32_t> cell_primitives;  ///< primitive ids
   std::span<const std::uint8_t> empty_distance;    ///< cell_count() empty-space distances (Grid::empty_distance; required)
   GridInfo grid;
+  std::span<const std::uint32_t> block_start = {};  ///< CellBlocks::start, or empty: no packed cell
+  std::span<const TriangleBlock> blocks = {};       ///< CellBlocks::blocks
 
-  /// The arrays of a host database and grid.
-  static DatabaseArrays of(const Database& db, const Grid& grid) {
-    return {db.primitives, db.vertex_normals, db.materials, grid.cell_start, grid.cell_primitives,
-            grid.empty_distance, grid.info};
+  /// The arrays of a host database and grid, and the grid's packed cells
+  /// if `blocks` is given (built from the same db and grid).
+  static DatabaseArrays of(const Database& db, const Grid& grid, const CellBlocks* blocks = nullptr) {
+    DatabaseArrays a{db.primitives, db.vertex_normals, db.materials, grid.cell_start, grid.cell_primitives,
+                     grid.empty_distance, grid.info};
+    if (blocks) {
+      a.block_start = blocks->start;
+      a.blocks = blocks->blocks;
+    }
+    return a;
   }
   /// Bytes of all arrays (what a node needs to hold a full copy).
   std::size_t bytes() const {
     return primitives.size_bytes() + vertex_normals.size_bytes() + materials.size_bytes() + cell_start.size_bytes() +
-           cell_primitives.size_bytes() + empty_distance.size_bytes();
+           cell_primitives.size_bytes() + empty_distance.size_bytes() + block_start.size_bytes() +
+           blocks.size_bytes();
   }
 };
 
 class DirectView {
  public:
-  DirectView(const Database& db, const Grid& grid) : a_(DatabaseArrays::of(db, grid)), db_(&db) {}
+  /// `blocks`: the grid's packed cells (built from db and grid), or null.
+  DirectView(const Database& db, const Grid& grid, const CellBlocks* blocks = nullptr)
+      : a_(DatabaseArrays::of(db, grid, blocks)), db_(&db) {}
   explicit DirectView(const DatabaseArrays& arrays) : a_(arrays) {}
 
   const GridInfo& grid_info() const { return a_.grid; }
@@ -48,6 +61,23 @@ class DirectView {
     if (const std::uint32_t d = a_.empty_distance[cell]) return d;
     const std::uint32_t* p = a_.cell_primitives.data();
     for (std::uint32_t i = a_.cell_start[cell], e = a_.cell_start[cell + 1]; i < e; ++i) f(p[i]);
+    return 0;
+  }
+  /// for_each_in_cell, except that a packed cell is handed whole to
+  /// packed(const CellBlockSpan&) instead of id by id to f.
+  template <class F, class P>
+  std::uint32_t visit_cell(std::uint32_t cell, F&& f, P&& packed) const {
+    if (const std::uint32_t d = a_.empty_distance[cell]) return d;
+    const std::uint32_t b = a_.cell_start[cell], e = a_.cell_start[cell + 1];
+    if (!a_.block_start.empty()) {
+      const std::uint32_t k = a_.block_start[cell], k_end = a_.block_start[cell + 1];
+      if (k != k_end) {
+        packed(CellBlockSpan{a_.blocks.data() + k, k_end - k, e - b});
+        return 0;
+      }
+    }
+    const std::uint32_t* p = a_.cell_primitives.data();
+    for (std::uint32_t i = b; i < e; ++i) f(p[i]);
     return 0;
   }
   const Primitive& primitive(std::uint32_t id) const { return a_.primitives[id]; }

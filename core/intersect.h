@@ -81,6 +81,31 @@ inline bool triangle_is_degenerate(const Vec3& v0, const Vec3& v1, const Vec3& v
   return !(area2 > 1e-7 * longest2);
 }
 
+namespace detail {
+
+/// The watertight test's last steps (Woop, Benthin, Wald 2013), after its
+/// sign test, shared by every form of the test so that they round alike:
+/// from the edge functions u, v, e and the sheared z of the three vertices
+/// relative to the origin (az, bz, cz), the hit's t (ray.tmin < t < tmax),
+/// then the degeneracy check, then the barycentrics.
+[[gnu::always_inline]] inline bool finish_watertight(const Ray& ray, float u, float v, float e, float az, float bz,
+                                                     float cz, float tmax, const Vec3& v0, const Vec3& v1,
+                                                     const Vec3& v2, TriangleHit& hit) {
+  const float det = u + v + e;
+  if (det == 0.0f) return false;
+  const float t_scaled = u * az + v * bz + e * cz;
+  const float inv_det = 1.0f / det;
+  const float t = t_scaled * inv_det;
+  if (!(t > ray.tmin && t < tmax)) return false;
+  if (triangle_is_degenerate(v0, v1, v2)) [[unlikely]] return false;
+  hit.t = t;
+  hit.u = v * inv_det;  // weight of v1
+  hit.v = e * inv_det;  // weight of v2
+  return true;
+}
+
+}  // namespace detail
+
 /// Watertight ray/triangle test (Woop, Benthin, Wald 2013), one axis
 /// permutation. A ray through a shared edge or vertex of a closed mesh hits
 /// at least one of the triangles: the edge functions u, v, e of a shared edge
@@ -110,18 +135,8 @@ template <int KX, int KY, int KZ>
     e = static_cast<float>(double(bx) * ay - double(by) * ax);
     if ((u < 0.0f || v < 0.0f || e < 0.0f) && (u > 0.0f || v > 0.0f || e > 0.0f)) return false;
   }
-  const float det = u + v + e;
-  if (det == 0.0f) return false;
-  const float az = w.sz * axis<KZ>(a), bz = w.sz * axis<KZ>(b), cz = w.sz * axis<KZ>(c);
-  const float t_scaled = u * az + v * bz + e * cz;
-  const float inv_det = 1.0f / det;
-  const float t = t_scaled * inv_det;
-  if (!(t > ray.tmin && t < tmax)) return false;
-  if (triangle_is_degenerate(v0, v1, v2)) [[unlikely]] return false;
-  hit.t = t;
-  hit.u = v * inv_det;  // weight of v1
-  hit.v = e * inv_det;  // weight of v2
-  return true;
+  return detail::finish_watertight(ray, u, v, e, w.sz * axis<KZ>(a), w.sz * axis<KZ>(b), w.sz * axis<KZ>(c), tmax,
+                                   v0, v1, v2, hit);
 }
 
 /// Watertight ray/triangle test (Woop, Benthin, Wald 2013): see
@@ -198,19 +213,8 @@ template <int KX, int KY, int KZ>
   alignas(16) float uve[4], z[4];
   _mm_store_ps(uve, U);
   _mm_store_ps(z, _mm_mul_ps(lanes.sz, ckz));
-  const float u = uve[0], vv = uve[1], e = uve[2];
-  const float det = u + vv + e;
-  if (det == 0.0f) return false;
-  const float t_scaled = u * z[0] + vv * z[1] + e * z[2];
-  const float inv_det = 1.0f / det;
-  const float t = t_scaled * inv_det;
-  if (!(t > ray.tmin && t < tmax)) return false;
-  if (triangle_is_degenerate(Vec3{v[0], v[1], v[2]}, Vec3{v[3], v[4], v[5]}, Vec3{v[6], v[7], v[8]})) [[unlikely]]
-    return false;
-  hit.t = t;
-  hit.u = vv * inv_det;
-  hit.v = e * inv_det;
-  return true;
+  return detail::finish_watertight(ray, uve[0], uve[1], uve[2], z[0], z[1], z[2], tmax, Vec3{v[0], v[1], v[2]},
+                                   Vec3{v[3], v[4], v[5]}, Vec3{v[6], v[7], v[8]}, hit);
 #else
   return intersect_triangle_axes<KX, KY, KZ>(ray, w, Vec3{v[0], v[1], v[2]}, Vec3{v[3], v[4], v[5]},
                                              Vec3{v[6], v[7], v[8]}, tmax, hit);

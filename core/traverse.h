@@ -25,6 +25,7 @@
 #include <cstdint>
 #include <cstring>
 
+#include "core/cell_blocks.h"
 #include "core/grid.h"
 #include "core/intersect.h"
 #include "core/math.h"
@@ -331,6 +332,13 @@ inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
   }
 }
 
+/// Views with packed cells (cell_blocks.h) offer visit_cell(cell, f,
+/// packed); the others are walked with for_each_in_cell.
+template <class View>
+concept has_packed_cells = requires(const View& v, std::uint32_t c) {
+  v.visit_cell(c, [](std::uint32_t) {}, [](const CellBlockSpan&) {});
+};
+
 namespace detail {
 
 // The loops below keep the hit, the counters and the mailbox's stamp in
@@ -346,13 +354,22 @@ template <int KX, int KY, int KZ, class View>
   bool found = false;
   walk_grid(view.grid_info(), ray, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
     ++stats.cells_visited;
-    const std::uint32_t empty = view.for_each_in_cell(cell, [&](std::uint32_t id) {
+    const auto listed = [&](std::uint32_t id) {
       if (mailbox.seen_or_insert(id)) {
         ++stats.mailbox_skips;
         return;
       }
       found |= intersect_primitive_axes<KX, KY, KZ>(view.primitive(id), id, ray, w, lanes, hit, stats);
-    });
+    };
+    std::uint32_t empty;
+    if constexpr (has_packed_cells<View>) {
+      empty = view.visit_cell(cell, listed, [&](const CellBlockSpan& cb) {
+        found |= intersect_cell_blocks<KX, KY, KZ, false>(cb, ray, w, hit.t, hit.u, hit.v, hit.primitive,
+                                                         stats.triangle_tests);
+      });
+    } else {
+      empty = view.for_each_in_cell(cell, listed);
+    }
     if (found && hit.t <= t_exit) return kStopWalk;
     stats.empty_jumps += empty >= kMinJumpDistance;
     return empty;
@@ -372,14 +389,23 @@ template <int KX, int KY, int KZ, class View>
   hit.t = ray.tmax;
   walk_grid(view.grid_info(), ray, [&](std::uint32_t cell, float) -> std::uint32_t {
     ++stats.cells_visited;
-    const std::uint32_t empty = view.for_each_in_cell(cell, [&](std::uint32_t id) {
+    const auto listed = [&](std::uint32_t id) {
       if (found) return;
       if (mailbox.seen_or_insert(id)) {
         ++stats.mailbox_skips;
         return;
       }
       found = intersect_primitive_axes<KX, KY, KZ>(view.primitive(id), id, ray, w, lanes, hit, stats);
-    });
+    };
+    std::uint32_t empty;
+    if constexpr (has_packed_cells<View>) {
+      empty = view.visit_cell(cell, listed, [&](const CellBlockSpan& cb) {
+        found = intersect_cell_blocks<KX, KY, KZ, true>(cb, ray, w, hit.t, hit.u, hit.v, hit.primitive,
+                                                       stats.triangle_tests);
+      });
+    } else {
+      empty = view.for_each_in_cell(cell, listed);
+    }
     if (found) return kStopWalk;
     stats.empty_jumps += empty >= kMinJumpDistance;
     return empty;

@@ -128,7 +128,11 @@ class Checker {
  public:
   Checker(const Database& db, const Grid& grid, const EmbreeScene& embree, const ValidateParams& p,
           ValidateReport& report)
-      : view_(db, grid), embree_(embree), params_(p), report_(report) {
+      : blocks_(p.pack_min > 0 ? build_cell_blocks(db, grid, p.pack_min) : CellBlocks{}),
+        view_(db, grid, p.pack_min > 0 ? &blocks_ : nullptr),
+        embree_(embree),
+        params_(p),
+        report_(report) {
     diag_ = db.bounds.empty() ? 1.0f : length(db.bounds.extent());
   }
 
@@ -204,6 +208,7 @@ class Checker {
   TraversalStats stats() const { return scratch_.stats; }
 
  private:
+  CellBlocks blocks_;  // before view_, which refers to it
   DirectView view_;
   const EmbreeScene& embree_;
   const ValidateParams& params_;

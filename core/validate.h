@@ -35,6 +35,7 @@
 #include <string>
 #include <vector>
 
+#include "core/cell_blocks.h"
 #include "core/database.h"
 #include "core/embree_scene.h"
 #include "core/grid.h"
@@ -49,6 +50,10 @@ struct ValidateParams {
   std::uint64_t seed = 1;
   float t_rel = 1e-4f;              ///< relative t tolerance
   std::size_t max_examples = 10;    ///< mismatching rays kept for the report
+  /// The grid's packed cells (cell_blocks.h) as sequential mode traces
+  /// them: cells listing at least this many triangles; 0 = none (every
+  /// cell walks its list, as the node modes do).
+  std::uint32_t pack_min = kDefaultPackMin;
 };
 
 /// Counts for one ray set.

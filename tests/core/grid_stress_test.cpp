@@ -52,13 +52,17 @@ TEST_CASE("grid: rays from inside a closed tessellated sphere never escape, even
         const Ray ray{o, target - o, 0.0f, kInfinity};
         if (!is_valid_ray(ray)) return;
         ++rays;
-        Hit h;
-        const bool hit = intersect_closest(b.view(), ray, h, scratch);
-        const bool any = intersect_any(b.view(), ray, scratch);
-        if (!hit || !any) {
-          escaped.add(str(ray) + (hit ? " (any-hit missed)" : " escaped"));
-        } else if (!(length(ray.at(h.t) - centre) <= radius * 1.0001f)) {
-          escaped.add(str(ray) + ": hit outside the sphere at " + str(ray.at(h.t)));
+        for (const bool packed : {false, true}) {
+          const DirectView view = packed ? b.packed_view() : b.view();
+          const std::string how = packed ? " (packed cells)" : "";
+          Hit h;
+          const bool hit = intersect_closest(view, ray, h, scratch);
+          const bool any = intersect_any(view, ray, scratch);
+          if (!hit || !any) {
+            escaped.add(str(ray) + (hit ? " (any-hit missed)" : " escaped") + how);
+          } else if (!(length(ray.at(h.t) - centre) <= radius * 1.0001f)) {
+            escaped.add(str(ray) + ": hit outside the sphere at " + str(ray.at(h.t)) + how);
+          }
         }
       };
       Rng rng(resolution);
@@ -133,9 +137,13 @@ TEST_CASE("grid: rays from inside a closed two-triangles-per-face cube never esc
         for (const Vec3& t : targets) {
           const Ray ray{o, t - o, 0.0f, kInfinity};
           ++rays;
-          Hit h;
-          if (!intersect_closest(b.view(), ray, h, scratch)) escaped.add(str(ray) + " escaped");
-          if (!intersect_any(b.view(), ray, scratch)) escaped.add(str(ray) + " escaped the any-hit query");
+          for (const bool packed : {false, true}) {
+            const DirectView view = packed ? b.packed_view() : b.view();
+            const std::string how = packed ? " (packed cells)" : "";
+            Hit h;
+            if (!intersect_closest(view, ray, h, scratch)) escaped.add(str(ray) + " escaped" + how);
+            if (!intersect_any(view, ray, scratch)) escaped.add(str(ray) + " escaped the any-hit query" + how);
+          }
         }
       INFO("escaping rays:" << escaped.first);
       CHECK(rays > 2000);

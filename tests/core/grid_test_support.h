@@ -11,6 +11,7 @@
 #include <random>
 #include <string>
 
+#include "core/cell_blocks.h"
 #include "core/database.h"
 #include "core/direct_view.h"
 #include "core/embree_scene.h"
@@ -71,13 +72,18 @@ inline Bounds3 grown(Bounds3 b, float fraction) {
   return b;
 }
 
-// Database + grid, built in place (a DirectView points into both).
+// Database + grid, built in place (a DirectView points into both), and the
+// grid's cells packed from one triangle on (cell_blocks.h).
 struct Built {
   Database db;
   Grid grid;
+  CellBlocks blocks;
   explicit Built(const Scene& s, const GridParams& gp = {}, const DatabaseParams& dp = {})
-      : db(make_database(s, dp)), grid(build_grid(db, gp)) {}
+      : db(make_database(s, dp)), grid(build_grid(db, gp)), blocks(build_cell_blocks(db, grid, 1)) {}
+  /// Every cell walks its primitive list (the node modes' tracing).
   DirectView view() const { return DirectView(db, grid); }
+  /// Every all-triangle cell tested in SIMD blocks (sequential mode's).
+  DirectView packed_view() const { return DirectView(db, grid, &blocks); }
 };
 
 inline GridParams forced(int x, int y, int z) {

@@ -1,0 +1,179 @@
+// Packed cell triangles: a grid cell's triangles copied beside each other in
+// SIMD blocks (structure of arrays, kBlockLanes triangles a block), so that
+// one vector test answers for a whole block and a dense cell reads its
+// triangles in order, not by id from the primitive array. This is the
+// "triangle4/8" idea of Embree's leaves (Wald et al., "Embree: a kernel
+// framework for efficient CPU ray tracing", SIGGRAPH 2014) applied to the
+// cells of a uniform grid.
+//
+// Place in the data flow: Database + Grid -> build_cell_blocks -> CellBlocks
+// -> DatabaseArrays / DirectView (direct_view.h) -> the one tracer
+// (traverse.h) tests a packed cell's blocks instead of walking its list.
+// Only views over plain arrays have them (sequential mode, the accel bench,
+// validate); svm's pages and dataflow's regions hold the paper's object
+// lists, and their views test those, with the same answers.
+//
+// Same answers: every lane performs intersect_triangle_axes's float
+// operations in its order (no FMA: -ffp-contract=off); a lane whose ray line
+// crosses its triangle finishes in scalar on the same values, and an edge
+// function exactly 0 goes to intersect_triangle_axes itself. Lanes are taken
+// in list order with the running nearest t as the bound, so the hit (t, u, v
+// and primitive, ties to the earlier listed) is the one the list walk finds.
+// A packed cell does not use the ray's mailbox: testing a block again costs
+// less than looking its ids up, and a second test of a primitive can never
+// replace the hit (its t is not below the nearest found since).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#if defined(__AVX__)
+#include <immintrin.h>
+#endif
+
+#include "core/database.h"
+#include "core/grid.h"
+#include "core/intersect.h"
+#include "core/math.h"
+
+namespace raynode::core {
+
+/// Triangles per block.
+inline constexpr std::uint32_t kBlockLanes = 8;
+
+/// kBlockLanes triangles, coordinates by vertex and axis, lane by lane.
+/// Lanes past the cell's count hold zeros and are never reported.
+struct alignas(32) TriangleBlock {
+  float v[3][3][kBlockLanes];           ///< [vertex 0..2][axis x,y,z][lane], world units
+  std::uint32_t primitive[kBlockLanes];  ///< primitive id of each lane
+};
+static_assert(sizeof(TriangleBlock) == 320);
+
+/// The packed cells of a grid. A cell is packed when it lists at least
+/// `min_triangles` primitives and all of them are triangles; its blocks are
+/// blocks[start[c] .. start[c+1]), its triangles in list order, the last
+/// block holding count - kBlockLanes * (blocks - 1) of them.
+struct CellBlocks {
+  std::vector<std::uint32_t> start;   ///< cell_count()+1 offsets into blocks
+  std::vector<TriangleBlock> blocks;  ///< 32-byte aligned
+  std::uint32_t min_triangles = 0;    ///< the packing threshold it was built with
+  std::size_t bytes() const {
+    return start.size() * sizeof(std::uint32_t) + blocks.size() * sizeof(TriangleBlock);
+  }
+};
+
+/// Default least triangle count of a packed cell (`--pack-cells`); chosen
+/// with `raynode bench accel` (see docs/results.md).
+inline constexpr std::uint32_t kDefaultPackMin = 3;
+
+/// Packs the cells of `grid` (over `db`) that list at least `min_triangles`
+/// (>= 1) primitives, all triangles. Throws std::invalid_argument for
+/// min_triangles == 0, std::length_error past 2^32 blocks.
+CellBlocks build_cell_blocks(const Database& db, const Grid& grid, std::uint32_t min_triangles = kDefaultPackMin);
+
+/// A packed cell's view: its blocks and how many triangles they hold.
+struct CellBlockSpan {
+  const TriangleBlock* blocks = nullptr;
+  std::uint32_t block_count = 0;
+  std::uint32_t triangles = 0;
+};
+
+namespace detail {
+
+// GCC/Clang vector extensions: AVX registers where the target has them.
+using LaneF = float __attribute__((vector_size(4 * kBlockLanes)));
+using LaneI = std::int32_t __attribute__((vector_size(4 * kBlockLanes)));
+
+inline std::uint32_t lane_bits(LaneI m) {
+#if defined(__AVX__)
+  static_assert(kBlockLanes == 8);
+  return std::uint32_t(_mm256_movemask_ps(reinterpret_cast<__m256>(m)));
+#else
+  std::uint32_t bits = 0;
+  for (std::uint32_t i = 0; i < kBlockLanes; ++i) bits |= std::uint32_t(m[i] & 1) << i;
+  return bits;
+#endif
+}
+
+/// The candidate lanes of `b` (the ray's line crosses the triangle, or an
+/// edge function is 0), and each lane's edge functions and z values.
+template <int KX, int KY, int KZ>
+[[gnu::always_inline]] inline std::uint32_t block_candidates(const TriangleBlock& b, const float o[3],
+                                                            const WatertightRay& w, LaneF& u, LaneF& v,
+                                                            LaneF& e) {
+  const LaneF* const c = reinterpret_cast<const LaneF*>(b.v);  // c[3 * vertex + axis]
+  const LaneF ax = c[0 + KX] - o[KX], ay = c[0 + KY] - o[KY], az = c[0 + KZ] - o[KZ];
+  const LaneF bx = c[3 + KX] - o[KX], by = c[3 + KY] - o[KY], bz = c[3 + KZ] - o[KZ];
+  const LaneF cx = c[6 + KX] - o[KX], cy = c[6 + KY] - o[KY], cz = c[6 + KZ] - o[KZ];
+  const LaneF Ax = ax - w.sx * az, Ay = ay - w.sy * az;
+  const LaneF Bx = bx - w.sx * bz, By = by - w.sy * bz;
+  const LaneF Cx = cx - w.sx * cz, Cy = cy - w.sy * cz;
+  u = Cx * By - Cy * Bx;
+  v = Ax * Cy - Ay * Cx;
+  e = Bx * Ay - By * Ax;
+  const LaneF zero = {};
+  const LaneI neg = (u < zero) | (v < zero) | (e < zero);
+  const LaneI pos = (u > zero) | (v > zero) | (e > zero);
+  return lane_bits(~(neg & pos));
+}
+
+/// The triangle of lane `l` of `b`.
+inline void block_triangle(const TriangleBlock& b, std::uint32_t l, Vec3& v0, Vec3& v1, Vec3& v2) {
+  v0 = Vec3{b.v[0][0][l], b.v[0][1][l], b.v[0][2][l]};
+  v1 = Vec3{b.v[1][0][l], b.v[1][1][l], b.v[1][2][l]};
+  v2 = Vec3{b.v[2][0][l], b.v[2][1][l], b.v[2][2][l]};
+}
+
+/// Finishes a candidate lane as intersect_triangle_axes does after its sign
+/// test, on the lane's u, v, e: true with `hit` when tmin < t < tmax.
+template <int KX, int KY, int KZ>
+inline bool finish_lane(const Ray& ray, const WatertightRay& w, const TriangleBlock& b, std::uint32_t l, float u,
+                        float v, float e, float tmax, TriangleHit& hit) {
+  Vec3 v0, v1, v2;
+  block_triangle(b, l, v0, v1, v2);
+  if (u == 0.0f || v == 0.0f || e == 0.0f) [[unlikely]]
+    return intersect_triangle_axes<KX, KY, KZ>(ray, w, v0, v1, v2, tmax, hit);
+  const float oz = detail::axis<KZ>(ray.origin);
+  return finish_watertight(ray, u, v, e, w.sz * (detail::axis<KZ>(v0) - oz), w.sz * (detail::axis<KZ>(v1) - oz),
+                           w.sz * (detail::axis<KZ>(v2) - oz), tmax, v0, v1, v2, hit);
+}
+
+/// Tests a packed cell's triangles in list order against `ray`; on a hit
+/// nearer than hit.t, updates `hit` (closest) and returns true. `any`: stop
+/// at the first hit in (ray.tmin, hit.t). Adds the triangles tested to
+/// `triangle_tests`.
+template <int KX, int KY, int KZ, bool kAny>
+[[gnu::always_inline]] inline bool intersect_cell_blocks(const CellBlockSpan& cell, const Ray& ray,
+                                                        const WatertightRay& w, float& hit_t, float& hit_u,
+                                                        float& hit_v, std::uint32_t& hit_primitive,
+                                                        std::uint64_t& triangle_tests) {
+  triangle_tests += cell.triangles;
+  const float o[3] = {ray.origin.x, ray.origin.y, ray.origin.z};
+  bool found = false;
+  std::uint32_t left = cell.triangles;
+  for (std::uint32_t k = 0; k < cell.block_count; ++k, left -= kBlockLanes) {
+    const TriangleBlock& b = cell.blocks[k];
+    LaneF u, v, e;
+    std::uint32_t bits = block_candidates<KX, KY, KZ>(b, o, w, u, v, e);
+    if (left < kBlockLanes) bits &= (1u << left) - 1;
+    while (bits) {
+      const std::uint32_t l = std::uint32_t(__builtin_ctz(bits));
+      bits &= bits - 1;
+      TriangleHit th;
+      if (!finish_lane<KX, KY, KZ>(ray, w, b, l, u[l], v[l], e[l], hit_t, th)) continue;
+      hit_t = th.t;
+      hit_u = th.u;
+      hit_v = th.v;
+      hit_primitive = b.primitive[l];
+      found = true;
+      if constexpr (kAny) return true;
+    }
+  }
+  return found;
+}
+
+}  // namespace detail
+
+}  // namespace raynode::core

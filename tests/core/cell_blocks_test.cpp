@@ -1,0 +1,165 @@
+// Packed cells (core/cell_blocks.h): which cells are packed and what their
+// blocks hold, and that tracing through them gives the same hits, bit for
+// bit (t, u, v, primitive) and the same any-hit answers as walking the
+// cells' primitive lists, which is what keeps sequential mode's images
+// identical to the node modes'.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "core/cell_blocks.h"
+#include "core/database.h"
+#include "core/direct_view.h"
+#include "core/grid.h"
+#include "core/scene.h"
+#include "core/scene_source.h"
+#include "core/traverse.h"
+#include "grid_test_support.h"
+
+namespace {
+using namespace raynode::core;
+using namespace raynode::testing::grid;
+
+bool same_bits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+/// Fires `rays` through both views and counts the rays whose closest hit
+/// (t, u, v, primitive, bit for bit) or any-hit answer differ.
+struct Comparison {
+  std::size_t rays = 0, hits = 0, differ = 0;
+  std::string first;
+  void fire(const DirectView& list, const DirectView& packed, const Ray& ray, TraversalScratch& scratch) {
+    if (!is_valid_ray(ray)) return;
+    ++rays;
+    Hit a, b;
+    const bool fa = intersect_closest(list, ray, a, scratch);
+    const bool fb = intersect_closest(packed, ray, b, scratch);
+    const bool aa = intersect_any(list, ray, scratch);
+    const bool ab = intersect_any(packed, ray, scratch);
+    hits += fa;
+    const bool same = fa == fb && aa == ab && a.primitive == b.primitive && same_bits(a.t, b.t) &&
+                      same_bits(a.u, b.u) && same_bits(a.v, b.v);
+    if (!same && differ++ == 0) first = str(ray) + ": lists " + str(a) + ", packed " + str(b);
+  }
+};
+
+}  // namespace
+
+TEST_CASE("cell blocks: a packed cell holds its list's triangles in order, lane by lane; other cells hold none") {
+  const Scene scene = load_scene({"tetra:4", 0});
+  const Database db = make_database(scene);
+  const Grid grid = build_grid(db);
+  for (std::uint32_t min : {1u, 3u, 9u}) {
+    CAPTURE(min);
+    const CellBlocks cb = build_cell_blocks(db, grid, min);
+    REQUIRE(cb.start.size() == std::size_t(grid.info.cell_count()) + 1);
+    REQUIRE(cb.start.back() == cb.blocks.size());
+    std::size_t packed = 0, lanes = 0;
+    for (std::uint32_t c = 0; c < grid.info.cell_count(); ++c) {
+      const std::uint32_t n = grid.cell_start[c + 1] - grid.cell_start[c];
+      const std::uint32_t blocks = cb.start[c + 1] - cb.start[c];
+      if (n < min) {
+        CHECK(blocks == 0);
+        continue;
+      }
+      ++packed;
+      REQUIRE(blocks == (n + kBlockLanes - 1) / kBlockLanes);
+      for (std::uint32_t i = 0; i < n; ++i, ++lanes) {
+        const TriangleBlock& b = cb.blocks[cb.start[c] + i / kBlockLanes];
+        const std::uint32_t l = i % kBlockLanes, id = grid.cell_primitives[grid.cell_start[c] + i];
+        REQUIRE(b.primitive[l] == id);
+        for (int v = 0; v < 3; ++v)
+          for (int a = 0; a < 3; ++a) REQUIRE(same_bits(b.v[v][a][l], db.primitives[id].data[3 * v + a]));
+      }
+    }
+    CHECK(packed > 0);
+    CHECK(lanes <= cb.blocks.size() * kBlockLanes);
+  }
+  CHECK_THROWS_AS(build_cell_blocks(db, grid, 0), std::invalid_argument);
+}
+
+TEST_CASE("cell blocks: a cell that lists a sphere or a cone is not packed, and its neighbours still are") {
+  Scene s;
+  // A fan of 12 triangles around the origin, a sphere inside the fan's cell.
+  for (int i = 0; i < 12; ++i) {
+    const float a0 = 0.5236f * float(i), a1 = 0.5236f * float(i + 1);
+    const Vec3 tri[3] = {Vec3{0, 0, 0.01f * float(i)}, Vec3{std::cos(a0), std::sin(a0), 0},
+                         Vec3{std::cos(a1), std::sin(a1), 0}};
+    s.add_polygon(tri, 3);
+  }
+  s.add_sphere({Vec3{0.1f, 0.1f, 0.05f}, 0.05f});
+  const Built b(s, forced(1, 1, 1));
+  REQUIRE(b.grid.cell_start[1] == 13);
+  CHECK(b.blocks.blocks.empty());  // the only cell lists the sphere
+  const Built b2(s, forced(4, 4, 1));
+  CHECK(!b2.blocks.blocks.empty());  // cells away from the sphere hold only triangles
+  for (std::uint32_t c = 0; c < b2.grid.info.cell_count(); ++c) {
+    bool sphere = false;
+    for (std::uint32_t i = b2.grid.cell_start[c]; i < b2.grid.cell_start[c + 1]; ++i)
+      sphere |= b2.db.primitives[b2.grid.cell_primitives[i]].kind != PrimitiveKind::kTriangle;
+    if (sphere) CHECK(b2.blocks.start[c] == b2.blocks.start[c + 1]);
+  }
+}
+
+TEST_CASE("cell blocks: packed and listed cells give bit-identical hits and any-hit answers on SPD scenes") {
+  struct Case {
+    const char* spec;
+    int tessellate;
+  };
+  for (const Case& c : {Case{"tetra:6", 0}, Case{"teapot:6", 0}, Case{"mount:4", 0}, Case{"balls:2", 2},
+                        Case{"rings:2", 1}}) {
+    CAPTURE(c.spec);
+    const Scene scene = load_scene({c.spec, c.tessellate});
+    const Database db = make_database(scene);
+    for (const float density : {0.5f, 2.0f, 8.0f}) {
+      CAPTURE(density);
+      GridParams gp;
+      gp.density = density;
+      const Grid grid = build_grid(db, gp);
+      const DirectView list(db, grid);
+      for (std::uint32_t min : {1u, kDefaultPackMin, 8u}) {
+        CAPTURE(min);
+        const CellBlocks cb = build_cell_blocks(db, grid, min);
+        const DirectView packed(db, grid, &cb);
+        TraversalScratch scratch;
+        Comparison cmp;
+        Rng rng(7 + min);
+        const Bounds3 box = grown(db.bounds, 0.3f);
+        for (int i = 0; i < 3000; ++i) {
+          const Vec3 o = random_in(rng, box);
+          // Half toward a primitive's vertex or edge midpoint (shared
+          // vertices and edges: the double fallback), half at random.
+          Vec3 d = random_unit(rng);
+          if (i % 2) {
+            const Primitive& p = db.primitives[rng() % db.primitives.size()];
+            if (p.kind == PrimitiveKind::kTriangle) {
+              const int k = int(rng() % 3);
+              const Vec3 t = (i % 4 == 1) ? p.vertex(k) : (p.vertex(k) + p.vertex((k + 1) % 3)) * 0.5f;
+              d = t - o;
+            }
+          }
+          cmp.fire(list, packed, Ray{o, d, 0.0f, kInfinity}, scratch);
+          // Shadow-like segments that end short of the scene.
+          cmp.fire(list, packed, Ray{o, d, 0.0f, uniform(rng, 0.0f, 1.0f) * length(box.extent())}, scratch);
+        }
+        // Axis-parallel rays along cell planes.
+        for (int i = 0; i < 300; ++i) {
+          Vec3 o = random_in(rng, box), d{0, 0, 0};
+          const int a = i % 3;
+          o[a] = box.lower[a];
+          d[a] = 1;
+          const int b = (a + 1) % 3;
+          o[b] = grid.info.bounds.lower[b] + grid.info.cell_size[b] * float(rng() % grid.info.res[b]);
+          cmp.fire(list, packed, Ray{o, d, 0.0f, kInfinity}, scratch);
+        }
+        INFO("first difference: " << cmp.first);
+        CHECK(cmp.hits > cmp.rays / 10);
+        CHECK(cmp.differ == 0);
+      }
+    }
+  }
+}
