@@ -15,6 +15,7 @@
 #include "core/embree_scene.h"
 #include "core/grid.h"
 #include "core/intersect.h"
+#include "core/render.h"
 #include "core/traverse.h"
 
 namespace raynode::apps {
@@ -39,13 +40,7 @@ struct RaySet {
 
 RaySet make_rays(const core::Database& db, const core::Grid& grid, int w, int h) {
   RaySet rs;
-  core::View view = db.view;
-  if (!db.has_view) {
-    view.at = db.bounds.center();
-    view.from = view.at + core::Vec3{0.3f, -0.4f, 0.866f} * (1.5f * core::length(db.bounds.extent()));
-    view.up = {0, 0, 1};
-  }
-  const core::Camera cam(view, w, h);
+  const core::Camera cam(core::render_view(db), w, h);
   const core::DirectView dv(db, grid);
   core::TraversalScratch scratch;
   std::vector<core::Ray> mirror;

@@ -85,7 +85,9 @@ struct PixelResult {
 };
 
 /// The view used for rendering `db`: its file view, or (no view block) one
-/// looking at the centre of the bounds from a fixed oblique direction.
+/// looking at the centre of the bounds from a fixed oblique direction, 1.5
+/// bounds diagonals away (farther for a scene tiny against its distance from
+/// the origin, so that float rounding cannot collapse the viewing direction).
 /// Throws std::runtime_error when the bounds reach so far that the default
 /// camera position overflows float.
 View render_view(const Database& db);

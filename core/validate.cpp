@@ -9,6 +9,7 @@
 #include "core/camera.h"
 #include "core/direct_view.h"
 #include "core/intersect.h"
+#include "core/render.h"
 
 namespace raynode::core {
 
@@ -247,23 +248,6 @@ Vec3 random_point_on(const Primitive& p, std::mt19937_64& rng) {
   return {};
 }
 
-View fallback_view(const Database& db) {
-  View v;
-  const Vec3 c = db.bounds.empty() ? Vec3{} : db.bounds.center();
-  float r = db.bounds.empty() ? 1.0f : 0.5f * length(db.bounds.extent());
-  if (!std::isfinite(r)) r = float(0.5 * length_double(db.bounds.extent()));  // |extent|^2 overflows float
-  v.at = c;
-  v.from = c + Vec3{0.3f, -0.4f, 0.866f} * (3.0f * r);
-  v.up = {0, 0, 1};
-  v.angle = 45.0f;
-  if (!is_finite(v.from))  // extent beyond float range: no camera position can be computed
-    throw std::runtime_error(fmt::format("the scene has no view and reaches too far for a default camera (bounds "
-                                         "({}, {}, {}) to ({}, {}, {})); give it a 'v' block",
-                                         db.bounds.lower.x, db.bounds.lower.y, db.bounds.lower.z, db.bounds.upper.x,
-                                         db.bounds.upper.y, db.bounds.upper.z));
-  return v;
-}
-
 }  // namespace
 
 ValidateReport validate_grid(const Database& db, const Grid& grid, const EmbreeScene& embree,
@@ -279,7 +263,7 @@ ValidateReport validate_grid(const Database& db, const Grid& grid, const EmbreeS
   };
   std::vector<Origin> hits;  // grid hits to spawn secondary rays from
 
-  const View view = db.has_view ? db.view : fallback_view(db);
+  const View view = render_view(db);
   const Camera cam(view, params.width, params.height);
   for (int y = 0; y < params.height; ++y)
     for (int x = 0; x < params.width; ++x) {

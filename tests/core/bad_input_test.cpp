@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/camera.h"
 #include "core/database.h"
 #include "core/embree_scene.h"
 #include "core/grid.h"
@@ -155,6 +156,28 @@ TEST_CASE("bad input (fuzz): a triangle 1e-40 wide renders without converting a 
   REQUIRE(r.color.pixels.size() == 27);
   for (float c : r.color.pixels) CHECK(std::isfinite(c));
   CHECK(r.stats.rays.primary == 9);
+}
+
+TEST_CASE("bad input (fuzz): a tiny scene far from the origin without a view gets a camera that looks at it") {
+  // nff_fuzzer (CI, stop 19): "view 'up' is parallel to the viewing
+  // direction" from render() of an accepted scene. The default camera stood
+  // 1.5 diagonals (0.39) from a 0.07-radius sphere at x = 6.5e6, where floats
+  // are 0.5 apart: 'from' rounded onto 'at' in x and y, leaving a viewing
+  // direction straight down, parallel to 'up'.
+  const Database db = make_database(parse_nff("#0.7 743431 0\ns 6495310 3172546 .7250 0.07412\n"));
+  const View v = render_view(db);
+  const Vec3 oblique = normalize(Vec3{-0.3f, 0.4f, -0.866f});  // the default camera's viewing direction
+  CHECK(dot(normalize_any(v.at - v.from), oblique) > 0.9999f);
+  CHECK_NOTHROW(Camera(v, 3, 3));
+  const Grid grid = build_grid(db);
+  RenderParams rp;
+  rp.width = rp.height = 3;
+  const RenderResult r = render(db, grid, rp);
+  CHECK(r.stats.rays.primary == 9);
+  // A scene near the origin keeps its camera 1.5 bounds diagonals away.
+  const Database near = make_database(parse_nff("s 100 0 0 1\n"));
+  const View nv = render_view(near);
+  CHECK(length(nv.from - nv.at) == doctest::Approx(1.5f * length(near.bounds.extent())).epsilon(1e-4));
 }
 
 TEST_CASE("bad input: clamped_floor clamps before converting, NaN and infinities included") {
