@@ -6,7 +6,7 @@
 // a 3x3 image.
 //
 // Place in the data flow: bytes -> parse_nff -> Scene -> write_nff ->
-// parse_nff -> make_database -> build_grid -> render. Crashes found here become cases
+// parse_nff -> make_database -> build_grid (+ build_cell_blocks) -> render. Crashes found here become cases
 // in tests/core/nff_regression_test.cpp.
 #include <cstddef>
 #include <cstdint>
@@ -18,7 +18,9 @@
 #include <string>
 #include <string_view>
 
+#include "core/cell_blocks.h"
 #include "core/database.h"
+#include "core/direct_view.h"
 #include "core/grid.h"
 #include "core/nff.h"
 #include "core/render.h"
@@ -80,6 +82,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       rp.max_depth = 3;
       try {
         render(db, grid, rp);
+        // Again with every non-empty cell packed into triangle blocks (the
+        // CLI's default path packs cells of 3 or more).
+        const CellBlocks blocks = build_cell_blocks(db, grid, 1);
+        render_image(DirectView(db, grid, &blocks), db, rp);
       } catch (const std::runtime_error& e) {
         // The one refusal allowed: no view, and bounds too large for a default camera.
         if (std::string_view(e.what()).find("reaches too far for a default camera") == std::string_view::npos) throw;
