@@ -52,6 +52,7 @@ struct RenderOptions {
   std::string accel = "grid";
   bool skip_empty = core::GridParams{}.skip_empty;
   std::uint32_t pack_min = core::kDefaultPackMin;  ///< --pack-cells; 0 = off
+  bool pack_given = false;  ///< --pack-cells was on the command line (svm packs only when asked)
   int nodes = 1;
   int width = 0, height = 0;
   int spp = 1;
@@ -279,6 +280,9 @@ core::RenderResult render_frame(const RenderOptions& o, const core::Database& db
   if (pages_aov && o.mode != "svm") throw UsageError("--aov pages needs --mode svm");
   const bool region_aov = std::find(o.aovs.begin(), o.aovs.end(), "region") != o.aovs.end();
   if (region_aov && o.mode != "dataflow") throw UsageError("--aov region needs --mode dataflow");
+  if (o.pack_given && o.pack_min > 0 && (o.mode == "replicated" || o.mode == "dataflow"))
+    throw UsageError("--pack-cells " + std::to_string(o.pack_min) + " is for --mode sequential, shared or svm; --mode " +
+                     o.mode + " walks the paper's object lists (leave --pack-cells out)");
   if (o.mode == "dataflow") {
     dataflow::DataflowParams dp;
     dp.render = params;
@@ -320,6 +324,7 @@ core::RenderResult render_frame(const RenderOptions& o, const core::Database& db
     sp.machine = machine_params(o);
     std::tie(sp.item_w, sp.item_h) = parse_work_item(o.work_item);
     sp.page_size = o.page_size;
+    sp.pack_min = o.pack_given ? o.pack_min : 0;  // svm pages the paper's object lists unless asked
     parse_cache(o.cache, sp);
     sp.node_aov = node_aov;
     sp.pages_aov = pages_aov;
@@ -642,7 +647,10 @@ void register_render_command(CLI::App& app) {
   c->add_option("--timeout", o->timeout_s, "Node modes: stop with an error after this many wall seconds (0 = never)")
       ->check(CLI::NonNegativeNumber);
   c->add_flag("--quiet,-q", o->quiet, "Print nothing on success, no progress line");
-  c->callback([o] { run_render(*o); });
+  c->callback([o, c] {
+    o->pack_given = c->get_option("--pack-cells")->count() > 0;
+    run_render(*o);
+  });
 }
 
 }  // namespace raynode::apps

@@ -34,9 +34,10 @@ void add_pack_cells_option(CLI::App& cmd, std::uint32_t& pack_min) {
   cmd.add_option_function<std::string>(
          "--pack-cells",
          [&pack_min](const std::string& v) { pack_min = v == "off" ? 0 : std::uint32_t(std::stoul(v)); },
-         fmt::format("In-process grid tracing (sequential, shared, bench, validate): cells listing at least N "
-                     "triangles keep them in SIMD blocks of {} and are tested a block at a time (same hits); off = "
-                     "every cell walks its primitive list, as the node modes do [default: {}]",
+         fmt::format("Grid tracing: cells listing at least N triangles keep them in SIMD blocks of {} and are "
+                     "tested a block at a time (same hits); off = every cell walks its primitive list, as the "
+                     "paper's tracer [default: {} in sequential and shared modes, bench and validate; off in svm, "
+                     "which then pages the blocks (pages of 512 B or more); replicated and dataflow: off only]",
                      raynode::core::kBlockLanes, raynode::core::kDefaultPackMin))
       ->check(CLI::IsMember({"off"}) | CLI::Range(1, 1 << 20));
 }

@@ -9,9 +9,10 @@
 // Place in the data flow: Database + Grid -> build_cell_blocks -> CellBlocks
 // -> DatabaseArrays / DirectView (direct_view.h) -> the one tracer
 // (traverse.h) tests a packed cell's blocks instead of walking its list.
-// Only views over plain arrays have them (sequential mode, the accel bench,
-// validate); svm's pages and dataflow's regions hold the paper's object
-// lists, and their views test those, with the same answers.
+// Views over plain arrays have them (sequential and shared modes, the accel
+// bench, validate); svm pages them when asked (--pack-cells N with --mode
+// svm, svm/paged_database.h), and otherwise, like dataflow's regions, holds
+// the paper's object lists, tested with the same answers.
 //
 // Same answers: every lane performs intersect_triangle_axes's float
 // operations in its order (no FMA: -ffp-contract=off); a lane whose ray line

@@ -400,8 +400,9 @@ template <int KX, int KY, int KZ, class View>
     std::uint32_t empty;
     if constexpr (has_packed_cells<View>) {
       empty = view.visit_cell(cell, listed, [&](const CellBlockSpan& cb) {
-        found = intersect_cell_blocks<KX, KY, KZ, true>(cb, ray, w, hit.t, hit.u, hit.v, hit.primitive,
-                                                       stats.triangle_tests);
+        // (a paged view hands a cell over in pieces: one hit is enough)
+        found = found || intersect_cell_blocks<KX, KY, KZ, true>(cb, ray, w, hit.t, hit.u, hit.v, hit.primitive,
+                                                                 stats.triangle_tests);
       });
     } else {
       empty = view.for_each_in_cell(cell, listed);

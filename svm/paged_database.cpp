@@ -16,15 +16,21 @@ namespace raynode::svm {
 
 namespace {
 
-/// Places every non-empty cell list in the lists segment (file comment's
-/// rule) and calls place(cell, address). Returns the segment's used bytes.
+bool is_packed(const core::CellBlocks* blocks, std::uint32_t cell) {
+  return blocks && blocks->start[cell] != blocks->start[cell + 1];
+}
+
+/// Places every non-empty, unpacked cell list in the lists segment (file
+/// comment's rule) and calls place(cell, address). Returns the segment's
+/// used bytes.
 template <class Place>
-std::uint64_t place_lists(const core::Grid& grid, std::uint32_t page_size, Place&& place) {
+std::uint64_t place_lists(const core::Grid& grid, const core::CellBlocks* blocks, std::uint32_t page_size,
+                          Place&& place) {
   std::uint64_t cursor = 0;
   const std::uint32_t cells = grid.info.cell_count();
   for (std::uint32_t c = 0; c < cells; ++c) {
     const std::uint64_t n = grid.cell_start[c + 1] - grid.cell_start[c];
-    if (n == 0) continue;
+    if (n == 0 || is_packed(blocks, c)) continue;
     const std::uint64_t bytes = n * sizeof(std::uint32_t);
     const std::uint64_t room = page_size - (cursor & (page_size - 1));
     if (bytes > room && bytes <= page_size) cursor += room;  // keep a short list in one page
@@ -36,13 +42,34 @@ std::uint64_t place_lists(const core::Grid& grid, std::uint32_t page_size, Place
   return cursor;
 }
 
+/// Places every packed cell's blocks in the blocks segment, per_page block
+/// slots a page, by the lists' rule, and calls place(cell, first slot).
+/// Returns the slots used.
+template <class Place>
+std::uint64_t place_blocks(const core::CellBlocks& blocks, std::uint32_t per_page, Place&& place) {
+  std::uint64_t cursor = 0;
+  const std::uint32_t cells = std::uint32_t(blocks.start.size() - 1);
+  for (std::uint32_t c = 0; c < cells; ++c) {
+    const std::uint64_t n = blocks.start[c + 1] - blocks.start[c];
+    if (n == 0) continue;
+    const std::uint64_t room = per_page - cursor % per_page;
+    if (n > room && n <= per_page) cursor += room;  // keep a cell's blocks in one page
+    if (cursor + n > 0xffffffffull)
+      throw std::length_error(fmt::format("svm: the packed cells need more than 2^32 block slots"));
+    place(c, std::uint32_t(cursor));
+    cursor += n;
+  }
+  return cursor;
+}
+
 std::uint32_t pages_for(std::uint64_t bytes, std::uint32_t page_size) {
   return std::uint32_t((bytes + page_size - 1) / page_size);
 }
 
 }  // namespace
 
-PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, std::uint32_t page_size) {
+PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, std::uint32_t page_size,
+                            const core::CellBlocks* blocks) {
   if (page_size < kMinPageSize || page_size > kMaxPageSize || !std::has_single_bit(page_size))
     throw std::invalid_argument(fmt::format(
         "page size must be a power of two from {} B (one primitive record) to {} B, got {} B", kMinPageSize,
@@ -53,12 +80,28 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
   l.cells = grid.info.cell_count();
   l.primitives = std::uint32_t(db.primitives.size());
   l.normal_sets = std::uint32_t(db.vertex_normals.size());
-  l.list_ids = std::uint32_t(grid.cell_primitives.size());
+  l.blocks_per_page = page_size / std::uint32_t(sizeof(core::TriangleBlock));
+  if (blocks && blocks->start.size() != std::size_t(l.cells) + 1)
+    throw std::invalid_argument(fmt::format("svm: the packed cells are for {} cells, the grid has {}",
+                                            blocks->start.size() - 1, l.cells));
+  if (blocks && blocks->blocks.empty()) blocks = nullptr;  // nothing packed: the paper's layout
+  if (blocks && l.blocks_per_page == 0)
+    throw std::invalid_argument(fmt::format("page size {} B cannot hold a {}-byte block of packed triangles (use "
+                                            "--page-size 512 or more, or --pack-cells off)",
+                                            page_size, sizeof(core::TriangleBlock)));
+  std::uint64_t listed = 0;
+  for (std::uint32_t c = 0; c < l.cells; ++c)
+    if (!is_packed(blocks, c)) listed += grid.cell_start[c + 1] - grid.cell_start[c];
+    else ++l.packed_cells;
+  l.list_ids = std::uint32_t(listed);
   l.directory_shift = std::uint32_t(std::countr_zero(page_size / std::uint32_t(sizeof(DirectoryEntry))));
   l.primitive_shift = std::uint32_t(std::countr_zero(page_size / std::uint32_t(sizeof(core::Primitive))));
   l.normals_per_page = page_size / std::uint32_t(sizeof(core::TriangleNormals));
 
-  const std::uint64_t list_bytes = place_lists(grid, page_size, [](std::uint32_t, std::uint32_t) {});
+  const std::uint64_t list_bytes = place_lists(grid, blocks, page_size, [](std::uint32_t, std::uint32_t) {});
+  const std::uint64_t block_slots =
+      blocks ? place_blocks(*blocks, l.blocks_per_page, [](std::uint32_t, std::uint32_t) {}) : 0;
+  const std::uint64_t block_pages = blocks ? (block_slots + l.blocks_per_page - 1) / l.blocks_per_page : 0;
   const std::uint64_t dir_pages = (std::uint64_t(l.cells) + (1u << l.directory_shift) - 1) >> l.directory_shift;
   const std::uint64_t list_pages = pages_for(list_bytes, page_size);
   const std::uint64_t prim_pages = (std::uint64_t(l.primitives) + (1u << l.primitive_shift) - 1) >> l.primitive_shift;
@@ -66,7 +109,7 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
       l.normals_per_page ? (std::uint64_t(l.normal_sets) + l.normals_per_page - 1) / l.normals_per_page : 0;
   if (l.normal_sets > 0 && l.normals_per_page == 0)
     throw std::invalid_argument(fmt::format("page size {} B cannot hold a 36-byte vertex-normal record", page_size));
-  const std::uint64_t total = dir_pages + list_pages + prim_pages + normal_pages;
+  const std::uint64_t total = dir_pages + list_pages + prim_pages + normal_pages + block_pages;
   if (total >= 0xffffffffull)
     throw std::length_error(fmt::format("svm: the database needs {} pages of {} B, more than 2^32", total, page_size));
   l.directory_first = 0;
@@ -77,20 +120,28 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
   l.primitive_pages = std::uint32_t(prim_pages);
   l.normals_first = l.primitive_first + l.primitive_pages;
   l.normals_pages = std::uint32_t(normal_pages);
+  l.block_first = l.normals_first + l.normals_pages;
+  l.block_pages = std::uint32_t(block_pages);
+  if (blocks) {
+    l.pack_min = blocks->min_triangles;
+    l.blocks = std::uint32_t(blocks->blocks.size());
+  }
   l.pages = std::uint32_t(total);
   l.object_bytes = std::uint64_t(l.cells) * sizeof(DirectoryEntry) + std::uint64_t(l.list_ids) * sizeof(std::uint32_t) +
                    std::uint64_t(l.primitives) * sizeof(core::Primitive) +
-                   std::uint64_t(l.normal_sets) * sizeof(core::TriangleNormals);
+                   std::uint64_t(l.normal_sets) * sizeof(core::TriangleNormals) +
+                   std::uint64_t(l.blocks) * sizeof(core::TriangleBlock);
   return l;
 }
 
-PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, std::uint32_t page_size) {
+PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, std::uint32_t page_size,
+                             const core::CellBlocks* blocks) {
   if (grid.empty_distance.size() != grid.info.cell_count())
     throw std::invalid_argument(fmt::format("svm: the grid has {} empty-space distances for {} cells (not built by "
                                             "core::build_grid?)",
                                             grid.empty_distance.size(), grid.info.cell_count()));
   PagedImage image;
-  image.layout = make_page_layout(db, grid, page_size);
+  image.layout = make_page_layout(db, grid, page_size, blocks);
   const PageLayout& l = image.layout;
   image.pages = HostPages(std::size_t(l.bytes()));
   std::byte* base = image.pages.data();
@@ -98,7 +149,8 @@ PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, s
 
   // Directory and lists.
   std::byte* lists = at(l.list_first, 0);
-  place_lists(grid, page_size, [&](std::uint32_t c, std::uint32_t address) {
+  if (l.blocks == 0) blocks = nullptr;
+  place_lists(grid, blocks, page_size, [&](std::uint32_t c, std::uint32_t address) {
     const std::uint32_t begin = grid.cell_start[c], end = grid.cell_start[c + 1];
     const DirectoryEntry e{end - begin, address};
     std::memcpy(at(l.directory_page(c), l.directory_offset(c)), &e, sizeof e);
@@ -115,6 +167,15 @@ PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, s
     std::memcpy(at(l.primitive_page(id), l.primitive_offset(id)), &db.primitives[id], sizeof(core::Primitive));
   for (std::uint32_t id = 0; id < l.normal_sets; ++id)
     std::memcpy(at(l.normals_page(id), l.normals_offset(id)), &db.vertex_normals[id], sizeof(core::TriangleNormals));
+  // Packed cells: their blocks, and directory entries pointing at them.
+  if (blocks)
+    place_blocks(*blocks, l.blocks_per_page, [&](std::uint32_t c, std::uint32_t slot) {
+      const std::uint32_t count = grid.cell_start[c + 1] - grid.cell_start[c];
+      const DirectoryEntry e{count | kPackedCell, slot};
+      std::memcpy(at(l.directory_page(c), l.directory_offset(c)), &e, sizeof e);
+      for (std::uint32_t k = blocks->start[c]; k < blocks->start[c + 1]; ++k, ++slot)
+        std::memcpy(at(l.block_page(slot), l.block_offset(slot)), &blocks->blocks[k], sizeof(core::TriangleBlock));
+    });
   return image;
 }
 

@@ -17,10 +17,17 @@
 //              order; a list that does not fit in the rest of the current
 //              page but fits in one page starts on a fresh page, a longer
 //              list continues page after page (a chain of per-page pieces,
-//              each an object in one page);
+//              each an object in one page); packed cells have none;
 //   primitives the 64-byte Primitive records, page_size/64 per page;
 //   normals    the 36-byte TriangleNormals of `pp` triangles,
-//              floor(page_size/36) per page.
+//              floor(page_size/36) per page;
+//   blocks     only with --pack-cells N (off by default, as in the paper):
+//              the 320-byte core::TriangleBlocks of the packed cells
+//              (core/cell_blocks.h), floor(page_size/320) per page, a
+//              cell's blocks in one page when they fit in one (as lists),
+//              else continued page after page. A packed cell's directory
+//              entry points at its blocks instead of a list, and the
+//              tracer tests them a block at a time (same hits).
 // Only O(1) metadata is replicated on every node instead: GridInfo,
 // materials, lights, camera, background, and this layout.
 #pragma once
@@ -29,6 +36,7 @@
 #include <cstdint>
 #include <span>
 
+#include "core/cell_blocks.h"
 #include "core/database.h"
 #include "core/grid.h"
 
@@ -36,12 +44,18 @@ namespace raynode::svm {
 
 /// One grid cell's entry in the paged cell directory.
 struct DirectoryEntry {
-  std::uint32_t count = 0;  ///< primitives listed in the cell
-  /// count > 0: byte address of the first id in the lists segment;
+  /// Primitives listed in the cell, with kPackedCell set when the cell is
+  /// packed (its triangles are in the blocks segment).
+  std::uint32_t count = 0;
+  /// count > 0: byte address of the first id in the lists segment, or of a
+  /// packed cell, its first block's slot in the blocks segment;
   /// count == 0: the cell's empty-space distance (core::Grid::empty_distance).
   std::uint32_t list = 0;
 };
 static_assert(sizeof(DirectoryEntry) == 8);
+
+/// DirectoryEntry::count's flag of a packed cell.
+inline constexpr std::uint32_t kPackedCell = 1u << 31;
 
 /// Smallest page: one Primitive record.
 inline constexpr std::uint32_t kMinPageSize = sizeof(core::Primitive);
@@ -59,12 +73,16 @@ struct PageLayout {
   std::uint32_t list_first = 0, list_pages = 0;
   std::uint32_t primitive_first = 0, primitive_pages = 0;
   std::uint32_t normals_first = 0, normals_pages = 0;
+  std::uint32_t block_first = 0, block_pages = 0;
 
   std::uint32_t directory_shift = 0;   ///< log2(directory entries per page)
   std::uint32_t primitive_shift = 0;   ///< log2(primitives per page)
   std::uint32_t normals_per_page = 0;  ///< TriangleNormals per page
+  std::uint32_t blocks_per_page = 0;   ///< TriangleBlocks per page (block slots)
 
   std::uint32_t cells = 0, primitives = 0, normal_sets = 0, list_ids = 0;
+  std::uint32_t pack_min = 0;       ///< least triangles of a packed cell; 0 = no packed cell
+  std::uint32_t packed_cells = 0, blocks = 0;
   std::uint64_t object_bytes = 0;  ///< bytes of all objects, without the unused tails of pages
 
   /// Bytes of the shared virtual memory (pages x page size).
@@ -91,13 +109,20 @@ struct PageLayout {
   }
   std::uint32_t list_page(std::uint32_t address) const { return list_first + (address >> page_shift); }
   std::uint32_t list_offset(std::uint32_t address) const { return address & (page_size - 1); }
+  std::uint32_t block_page(std::uint32_t slot) const { return block_first + slot / blocks_per_page; }
+  std::uint32_t block_offset(std::uint32_t slot) const {
+    return (slot % blocks_per_page) * std::uint32_t(sizeof(core::TriangleBlock));
+  }
 };
 
-/// Builds the layout for a database and grid. Throws std::invalid_argument
-/// when page_size is not a power of two in [kMinPageSize, kMaxPageSize],
+/// Builds the layout for a database and grid, with the packed cells of
+/// `blocks` (built from the same db and grid) when given. Throws
+/// std::invalid_argument when page_size is not a power of two in
+/// [kMinPageSize, kMaxPageSize] or, with blocks, below one block (320 B),
 /// and std::length_error when the database needs more than 2^32 pages or
 /// its lists more than 4 GiB.
-PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, std::uint32_t page_size);
+PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, std::uint32_t page_size,
+                            const core::CellBlocks* blocks = nullptr);
 
 /// Page-aligned host memory (mmap) that can be made unreadable: the host's
 /// copy of the shared virtual memory, protected once the nodes are loaded
@@ -139,9 +164,11 @@ struct PagedImage {
   }
 };
 
-/// Lays out `db` and `grid` in pages as described in the file comment.
-/// Same errors as make_page_layout, and std::invalid_argument when `grid`
-/// lacks its empty-space distances (core::build_grid computes them).
-PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, std::uint32_t page_size);
+/// Lays out `db` and `grid` (and the packed cells of `blocks`, if given) in
+/// pages as described in the file comment. Same errors as
+/// make_page_layout, and std::invalid_argument when `grid` lacks its
+/// empty-space distances (core::build_grid computes them).
+PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, std::uint32_t page_size,
+                             const core::CellBlocks* blocks = nullptr);
 
 }  // namespace raynode::svm

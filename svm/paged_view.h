@@ -14,7 +14,9 @@
 // into a frame that the next access may evict (a one-page cache does so
 // every time); the tracer uses them before its next view call
 // (core/traverse.h). for_each_in_cell visits a copy of a list piece that
-// lies in a cache frame (f() may evict it); home pages never move.
+// lies in a cache frame (f() may evict it); home pages never move. A packed
+// cell's blocks (--pack-cells) are handed to visit_cell's `packed` one page
+// piece at a time; `packed` reads only them, so its frame stays put.
 //
 // Thread safety: owner node thread only.
 #pragma once
@@ -24,6 +26,7 @@
 #include <cstring>
 #include <span>
 
+#include "core/cell_blocks.h"
 #include "core/database.h"
 #include "core/grid.h"
 #include "svm/pager.h"
@@ -38,12 +41,43 @@ class PagedView {
 
   const core::GridInfo& grid_info() const { return grid_; }
 
+  /// Calls f(id) for each primitive the cell lists (a packed cell: each
+  /// triangle of its blocks, in list order); returns the empty cell's
+  /// empty-space distance, or 0.
   template <class F>
   std::uint32_t for_each_in_cell(std::uint32_t cell, F&& f) const {
+    return visit_cell(cell, f, [&](const core::CellBlockSpan& cb) {
+      core::TriangleBlock copy;  // f() may evict the frame
+      for (std::uint32_t k = 0, left = cb.triangles; k < cb.block_count; ++k, left -= core::kBlockLanes) {
+        std::memcpy(&copy, &cb.blocks[k], sizeof copy);
+        for (std::uint32_t l = 0; l < std::min(left, core::kBlockLanes); ++l) f(copy.primitive[l]);
+      }
+    });
+  }
+  /// for_each_in_cell, except that a packed cell's blocks are handed to
+  /// packed(const core::CellBlockSpan&), a page's piece at a time.
+  template <class F, class P>
+  std::uint32_t visit_cell(std::uint32_t cell, F&& f, P&& packed) const {
     DirectoryEntry e;
     std::memcpy(&e, pager_->access(layout_.directory_page(cell)) + layout_.directory_offset(cell),
                 sizeof e);
     if (e.count == 0) return e.list;  // an empty cell's entry holds its empty-space distance
+    if (e.count & kPackedCell) {
+      std::uint32_t slot = e.list, triangles = e.count & ~kPackedCell;
+      std::uint32_t left = (triangles + core::kBlockLanes - 1) / core::kBlockLanes;
+      while (left > 0) {
+        const std::uint32_t n = std::min(left, layout_.blocks_per_page - slot % layout_.blocks_per_page);
+        const std::uint32_t in_piece = std::min(triangles, n * core::kBlockLanes);
+        packed(core::CellBlockSpan{
+            reinterpret_cast<const core::TriangleBlock*>(pager_->access(layout_.block_page(slot)) +
+                                                         layout_.block_offset(slot)),
+            n, in_piece});
+        slot += n;
+        left -= n;
+        triangles -= in_piece;
+      }
+      return 0;
+    }
     std::uint32_t address = e.list, left = e.count;
     while (left > 0) {
       const std::uint32_t page = layout_.list_page(address), offset = layout_.list_offset(address);

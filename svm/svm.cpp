@@ -138,7 +138,12 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
 
   // The host lays the database out in pages. From here on the run sees only
   // the image and the O(1) metadata (RunInput), never `db` or `grid`.
-  PagedImage image = build_paged_image(db, grid, params.page_size);
+  // With --pack-cells, the packed cells' triangle blocks are paged too.
+  PagedImage image = [&] {
+    if (params.pack_min == 0) return build_paged_image(db, grid, params.page_size);
+    const core::CellBlocks blocks = core::build_cell_blocks(db, grid, params.pack_min);
+    return build_paged_image(db, grid, params.page_size, &blocks);
+  }();
   const RunInput in{&image, grid.info, db.materials, db.lights, db.background, core::Camera(cam_view, w, h)};
   const PageLayout& layout = image.layout;
 
@@ -295,7 +300,11 @@ nlohmann::json SvmResult::to_json() const {
   j["pages"] = {{"directory", layout.directory_pages},
                 {"lists", layout.list_pages},
                 {"primitives", layout.primitive_pages},
-                {"normals", layout.normals_pages}};
+                {"normals", layout.normals_pages},
+                {"blocks", layout.block_pages}};
+  j["pack_cells"] = layout.pack_min;
+  j["packed_cells"] = layout.packed_cells;
+  j["packed_blocks"] = layout.blocks;
   j["node_fixed_bytes"] = node_fixed_bytes;
   j["communication_rate_bytes_per_s"] = tp > 0 ? double(page_bytes(total)) / tp : 0.0;
   nlohmann::json per = nlohmann::json::array();

@@ -36,6 +36,10 @@ struct SvmParams {
   std::int32_t item_w = 3;        ///< work item, pixels (--work-item WxH)
   std::int32_t item_h = 3;
   std::uint32_t page_size = 1024; ///< bytes (--page-size), a power of two >= 64
+  /// Cells listing at least this many triangles are paged as triangle
+  /// blocks (--pack-cells N, core/cell_blocks.h; needs pages of 512 B or
+  /// more); 0 = off, the paper's object lists only.
+  std::uint32_t pack_min = 0;
   /// Cache frames per node (--cache N): 0 = all the room the node's memory
   /// has left after its home pages, page table, mailbox and buffers.
   std::uint32_t cache_pages = 0;

@@ -101,6 +101,59 @@ TEST_CASE("paged database: page sizes that are not a power of two or below one p
   CHECK_NOTHROW(build_paged_image(b.db, b.grid, 64));
 }
 
+TEST_CASE("paged database: packed cells (--pack-cells) hold their blocks in the blocks segment, none across a page") {
+  const testing::BuiltScene b = testing::build_spd("teapot", 3);
+  for (std::uint32_t pack : {1u, 3u})
+    for (std::uint32_t ps : {512u, 1024u, 4096u}) {
+      CAPTURE(pack);
+      CAPTURE(ps);
+      const core::CellBlocks blocks = core::build_cell_blocks(b.db, b.grid, pack);
+      REQUIRE(!blocks.blocks.empty());
+      const PagedImage im = build_paged_image(b.db, b.grid, ps, &blocks);
+      const PageLayout& l = im.layout;
+      const std::uint32_t per_page = ps / 320;
+      CHECK(l.blocks_per_page == per_page);
+      CHECK(l.pack_min == pack);
+      CHECK(l.blocks == blocks.blocks.size());
+      CHECK(l.pages == l.directory_pages + l.list_pages + l.primitive_pages + l.normals_pages + l.block_pages);
+      std::size_t packed = 0, listed = 0, spanning = 0;
+      for (std::uint32_t c = 0; c < b.grid.info.cell_count(); ++c) {
+        const std::uint32_t n = b.grid.cell_start[c + 1] - b.grid.cell_start[c];
+        const std::uint32_t k0 = blocks.start[c], k1 = blocks.start[c + 1];
+        DirectoryEntry e;
+        std::memcpy(&e, im.page(l.directory_page(c)).data() + l.directory_offset(c), sizeof e);
+        if (k0 == k1) {  // unpacked: the list as before
+          REQUIRE((e.count & kPackedCell) == 0);
+          REQUIRE(e.count == n);
+          if (n > 0) REQUIRE(list_of(im, c).size() == n);
+          listed += n;
+          continue;
+        }
+        ++packed;
+        REQUIRE(e.count == (n | kPackedCell));
+        const std::uint32_t first = l.block_page(e.list), last = l.block_page(e.list + (k1 - k0) - 1);
+        if (k1 - k0 <= per_page) REQUIRE(first == last);  // a cell that fits in a page stays in one
+        else ++spanning;
+        for (std::uint32_t k = k0, slot = e.list; k < k1; ++k, ++slot) {
+          REQUIRE(l.block_page(slot) >= l.block_first);
+          REQUIRE(l.block_page(slot) < l.block_first + l.block_pages);
+          REQUIRE(l.block_offset(slot) + 320 <= ps);
+          REQUIRE(std::memcmp(im.page(l.block_page(slot)).data() + l.block_offset(slot), &blocks.blocks[k], 320) == 0);
+        }
+      }
+      CHECK(l.packed_cells == packed);
+      CHECK(l.list_ids == listed);
+      CHECK(listed < b.grid.cell_primitives.size());  // packed cells keep no list
+      CHECK(l.object_bytes == b.db.primitives.size() * 64 + b.db.vertex_normals.size() * 36 +
+                                  std::size_t(b.grid.info.cell_count()) * 8 + listed * 4 + blocks.blocks.size() * 320);
+      if (ps == 512) CHECK(spanning > 0);  // the chained case is exercised
+    }
+  // A page smaller than a block cannot hold one.
+  const core::CellBlocks blocks = core::build_cell_blocks(b.db, b.grid, 3);
+  CHECK_THROWS_WITH_AS(build_paged_image(b.db, b.grid, 256, &blocks), doctest::Contains("320-byte block"),
+                       std::invalid_argument);
+}
+
 TEST_CASE("paged database: a grid without its empty-space distances is refused, not read past its end") {
   testing::BuiltScene b = testing::build_spd("rings", 1);
   b.grid.empty_distance.clear();
