@@ -501,6 +501,8 @@ void run_render(const RenderOptions& o) {
     }
     if (!extras.svm.is_null()) {
       j["svm"] = extras.svm;
+      j["pack_cells"] = extras.svm["pack_cells"];  // svm packs its paged database, not the host's grid
+      j["packed_blocks"] = extras.svm["packed_blocks"];
       j["svm"]["per_node"] = nullptr;
       j["svm"].erase("per_node");
       for (std::size_t i = 0; i < extras.svm["per_node"].size() && i < j["per_node"].size(); ++i)
