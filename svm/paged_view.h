@@ -47,11 +47,13 @@ class PagedView {
   template <class F>
   std::uint32_t for_each_in_cell(std::uint32_t cell, F&& f) const {
     return visit_cell(cell, f, [&](const core::CellBlockSpan& cb) {
-      core::TriangleBlock copy;  // f() may evict the frame
-      for (std::uint32_t k = 0, left = cb.triangles; k < cb.block_count; ++k, left -= core::kBlockLanes) {
-        std::memcpy(&copy, &cb.blocks[k], sizeof copy);
-        for (std::uint32_t l = 0; l < std::min(left, core::kBlockLanes); ++l) f(copy.primitive[l]);
-      }
+      // f() may evict the piece's frame: its ids first (8 per 320-byte
+      // block, so they fit in the page-sized list buffer).
+      std::uint32_t* ids = pager_->list_buffer();
+      std::uint32_t n = 0;
+      for (std::uint32_t k = 0, left = cb.triangles; k < cb.block_count; ++k, left -= core::kBlockLanes)
+        for (std::uint32_t l = 0; l < std::min(left, core::kBlockLanes); ++l) ids[n++] = cb.blocks[k].primitive[l];
+      for (std::uint32_t i = 0; i < n; ++i) f(ids[i]);
     });
   }
   /// for_each_in_cell, except that a packed cell's blocks are handed to

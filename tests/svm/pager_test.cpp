@@ -2,8 +2,11 @@
 
 #include <cstring>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 #include "nodes/machine.h"
+#include "svm/paged_view.h"
 #include "svm/pager.h"
 #include "test_scenes.h"
 
@@ -257,4 +260,35 @@ TEST_CASE("pager: a pixel touching more pages than its lists hold counts each on
     CHECK(pager.stats().misses == 0);
     CHECK(pager.stats().cache_accesses == 0);
   });
+}
+
+TEST_CASE("paged view: for_each_in_cell lists every cell, packed or not, while f() evicts the 1-page cache") {
+  // f() reads each primitive, so with one cache frame every remote read
+  // evicts the frame that held the cell's list piece or blocks.
+  const testing::BuiltScene b = testing::build_spd("teapot", 2);
+  // 512-byte pages: one block a page, cells chained over pages; 1024: pieces of up to 3 blocks.
+  for (const auto& [ps, pack] : {std::pair{512u, 0u}, std::pair{512u, 1u}, std::pair{512u, 3u},
+                                 std::pair{1024u, 0u}, std::pair{1024u, 1u}, std::pair{1024u, 3u}}) {
+    CAPTURE(ps);
+    CAPTURE(pack);
+    const core::CellBlocks blocks = pack ? core::build_cell_blocks(b.db, b.grid, pack) : core::CellBlocks{};
+    const PagedImage image = build_paged_image(b.db, b.grid, ps, pack ? &blocks : nullptr);
+    if (pack) REQUIRE(image.layout.blocks > 0);
+    with_two_nodes(image, 1, [&](Pager& pager, nodes::NodeContext&) {
+      const PagedView view(pager, b.grid.info, b.db.materials);
+      for (std::uint32_t c = 0; c < b.grid.info.cell_count(); ++c) {
+        pager.begin_pixel();
+        std::vector<std::uint32_t> ids;
+        const std::uint32_t empty = view.for_each_in_cell(c, [&](std::uint32_t id) {
+          REQUIRE(std::memcmp(&view.primitive(id), &b.db.primitives[id], sizeof(core::Primitive)) == 0);
+          ids.push_back(id);
+        });
+        const std::vector<std::uint32_t> expect(b.grid.cell_primitives.begin() + b.grid.cell_start[c],
+                                                b.grid.cell_primitives.begin() + b.grid.cell_start[c + 1]);
+        REQUIRE(ids == expect);
+        REQUIRE(empty == (expect.empty() ? b.grid.empty_distance[c] : 0u));
+      }
+      CHECK(pager.stats().evictions > 0);
+    });
+  }
 }
