@@ -489,8 +489,11 @@ void run_render(const RenderOptions& o) {
     if (accel.grid) {
       j["grid_resolution"] = {accel.grid->info.res[0], accel.grid->info.res[1], accel.grid->info.res[2]};
       j["skip_empty"] = o.skip_empty;
-      j["pack_cells"] = accel.blocks ? accel.blocks->min_triangles : 0;
-      j["packed_blocks"] = accel.blocks ? accel.blocks->blocks.size() : 0;
+      // svm packs its paged database, not the host's grid.
+      const bool svm = !extras.svm.is_null();
+      j["pack_cells"] = svm ? extras.svm["pack_cells"] : nlohmann::json(accel.blocks ? accel.blocks->min_triangles : 0);
+      j["packed_blocks"] = svm ? extras.svm["packed_blocks"]
+                               : nlohmann::json(accel.blocks ? accel.blocks->blocks.size() : 0);
     }
     for (const auto& [name, path] : aov_files) j["aov_outputs"][name] = path;
     if (!extras.nodes.is_null()) {
@@ -501,8 +504,6 @@ void run_render(const RenderOptions& o) {
     }
     if (!extras.svm.is_null()) {
       j["svm"] = extras.svm;
-      j["pack_cells"] = extras.svm["pack_cells"];  // svm packs its paged database, not the host's grid
-      j["packed_blocks"] = extras.svm["packed_blocks"];
       j["svm"]["per_node"] = nullptr;
       j["svm"].erase("per_node");
       for (std::size_t i = 0; i < extras.svm["per_node"].size() && i < j["per_node"].size(); ++i)

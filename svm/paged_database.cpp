@@ -9,6 +9,7 @@
 #include <cstring>
 #include <new>
 #include <stdexcept>
+#include <string>
 #include <system_error>
 #include <utility>
 
@@ -20,46 +21,49 @@ bool is_packed(const core::CellBlocks* blocks, std::uint32_t cell) {
   return blocks && blocks->start[cell] != blocks->start[cell + 1];
 }
 
-/// Places every non-empty, unpacked cell list in the lists segment (file
-/// comment's rule) and calls place(cell, address). Returns the segment's
-/// used bytes.
-template <class Place>
-std::uint64_t place_lists(const core::Grid& grid, const core::CellBlocks* blocks, std::uint32_t page_size,
-                          Place&& place) {
+/// Places, cell by cell, the run of units(c) units (list bytes, block
+/// slots) of every cell that has one, per_page units a page (the file
+/// comment's rule: a run that does not fit in the rest of the current page
+/// but fits in one page starts on a fresh page, a longer run continues page
+/// after page), and calls place(cell, first unit). Returns the units used;
+/// throws std::length_error(too_many()) past 2^32 units.
+template <class Units, class TooMany, class Place>
+std::uint64_t place_runs(std::uint32_t cells, std::uint64_t per_page, Units&& units, TooMany&& too_many,
+                         Place&& place) {
   std::uint64_t cursor = 0;
-  const std::uint32_t cells = grid.info.cell_count();
   for (std::uint32_t c = 0; c < cells; ++c) {
-    const std::uint64_t n = grid.cell_start[c + 1] - grid.cell_start[c];
-    if (n == 0 || is_packed(blocks, c)) continue;
-    const std::uint64_t bytes = n * sizeof(std::uint32_t);
-    const std::uint64_t room = page_size - (cursor & (page_size - 1));
-    if (bytes > room && bytes <= page_size) cursor += room;  // keep a short list in one page
-    if (cursor + bytes > 0xffffffffull)
-      throw std::length_error(fmt::format("svm: the cell lists need more than 4 GiB ({} ids)", grid.references()));
-    place(c, std::uint32_t(cursor));
-    cursor += bytes;
-  }
-  return cursor;
-}
-
-/// Places every packed cell's blocks in the blocks segment, per_page block
-/// slots a page, by the lists' rule, and calls place(cell, first slot).
-/// Returns the slots used.
-template <class Place>
-std::uint64_t place_blocks(const core::CellBlocks& blocks, std::uint32_t per_page, Place&& place) {
-  std::uint64_t cursor = 0;
-  const std::uint32_t cells = std::uint32_t(blocks.start.size() - 1);
-  for (std::uint32_t c = 0; c < cells; ++c) {
-    const std::uint64_t n = blocks.start[c + 1] - blocks.start[c];
+    const std::uint64_t n = units(c);
     if (n == 0) continue;
     const std::uint64_t room = per_page - cursor % per_page;
-    if (n > room && n <= per_page) cursor += room;  // keep a cell's blocks in one page
-    if (cursor + n > 0xffffffffull)
-      throw std::length_error(fmt::format("svm: the packed cells need more than 2^32 block slots"));
+    if (n > room && n <= per_page) cursor += room;  // keep a short run in one page
+    if (cursor + n > 0xffffffffull) throw std::length_error(too_many());
     place(c, std::uint32_t(cursor));
     cursor += n;
   }
   return cursor;
+}
+
+/// The lists segment: every non-empty, unpacked cell's ids; place(cell,
+/// byte address). Returns the segment's used bytes.
+template <class Place>
+std::uint64_t place_lists(const core::Grid& grid, const core::CellBlocks* blocks, std::uint32_t page_size,
+                          Place&& place) {
+  return place_runs(
+      grid.info.cell_count(), page_size,
+      [&](std::uint32_t c) {
+        return is_packed(blocks, c) ? 0 : std::uint64_t(grid.cell_start[c + 1] - grid.cell_start[c]) * 4;
+      },
+      [&] { return fmt::format("svm: the cell lists need more than 4 GiB ({} ids)", grid.references()); }, place);
+}
+
+/// The blocks segment: every packed cell's blocks, per_page block slots a
+/// page; place(cell, first slot). Returns the slots used.
+template <class Place>
+std::uint64_t place_blocks(const core::CellBlocks& blocks, std::uint32_t per_page, Place&& place) {
+  return place_runs(
+      std::uint32_t(blocks.start.size() - 1), per_page,
+      [&](std::uint32_t c) { return std::uint64_t(blocks.start[c + 1] - blocks.start[c]); },
+      [] { return std::string("svm: the packed cells need more than 2^32 block slots"); }, place);
 }
 
 std::uint32_t pages_for(std::uint64_t bytes, std::uint32_t page_size) {
