@@ -106,6 +106,8 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
   const std::uint64_t block_slots =
       blocks ? place_blocks(*blocks, l.blocks_per_page, [](std::uint32_t, std::uint32_t) {}) : 0;
   const std::uint64_t block_pages = blocks ? (block_slots + l.blocks_per_page - 1) / l.blocks_per_page : 0;
+  if (block_pages * page_size > 0xffffffffull)  // directory entries hold 32-bit block addresses
+    throw std::length_error(fmt::format("svm: the packed cells need more than 4 GiB ({} blocks)", blocks->blocks.size()));
   const std::uint64_t dir_pages = (std::uint64_t(l.cells) + (1u << l.directory_shift) - 1) >> l.directory_shift;
   const std::uint64_t list_pages = pages_for(list_bytes, page_size);
   const std::uint64_t prim_pages = (std::uint64_t(l.primitives) + (1u << l.primitive_shift) - 1) >> l.primitive_shift;
@@ -175,7 +177,7 @@ PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, s
   if (blocks)
     place_blocks(*blocks, l.blocks_per_page, [&](std::uint32_t c, std::uint32_t slot) {
       const std::uint32_t count = grid.cell_start[c + 1] - grid.cell_start[c];
-      const DirectoryEntry e{count | kPackedCell, slot};
+      const DirectoryEntry e{count | kPackedCell, l.block_address(slot)};
       std::memcpy(at(l.directory_page(c), l.directory_offset(c)), &e, sizeof e);
       for (std::uint32_t k = blocks->start[c]; k < blocks->start[c + 1]; ++k, ++slot)
         std::memcpy(at(l.block_page(slot), l.block_offset(slot)), &blocks->blocks[k], sizeof(core::TriangleBlock));

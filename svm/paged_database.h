@@ -48,7 +48,7 @@ struct DirectoryEntry {
   /// packed (its triangles are in the blocks segment).
   std::uint32_t count = 0;
   /// count > 0: byte address of the first id in the lists segment, or of a
-  /// packed cell, its first block's slot in the blocks segment;
+  /// packed cell, of its first block in the blocks segment;
   /// count == 0: the cell's empty-space distance (core::Grid::empty_distance).
   std::uint32_t list = 0;
 };
@@ -109,10 +109,22 @@ struct PageLayout {
   }
   std::uint32_t list_page(std::uint32_t address) const { return list_first + (address >> page_shift); }
   std::uint32_t list_offset(std::uint32_t address) const { return address & (page_size - 1); }
+  /// Block slots (the host's numbering, blocks_per_page a page) and the
+  /// byte addresses in the blocks segment that directory entries hold (no
+  /// division to find a block's page and offset).
   std::uint32_t block_page(std::uint32_t slot) const { return block_first + slot / blocks_per_page; }
   std::uint32_t block_offset(std::uint32_t slot) const {
     return (slot % blocks_per_page) * std::uint32_t(sizeof(core::TriangleBlock));
   }
+  std::uint32_t block_address(std::uint32_t slot) const {
+    return (slot / blocks_per_page) * page_size + block_offset(slot);
+  }
+  std::uint32_t block_slot(std::uint32_t address) const {
+    return (address >> page_shift) * blocks_per_page +
+           (address & (page_size - 1)) / std::uint32_t(sizeof(core::TriangleBlock));
+  }
+  std::uint32_t block_address_page(std::uint32_t address) const { return block_first + (address >> page_shift); }
+  std::uint32_t block_address_offset(std::uint32_t address) const { return address & (page_size - 1); }
 };
 
 /// Builds the layout for a database and grid, with the packed cells of

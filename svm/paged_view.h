@@ -60,27 +60,22 @@ class PagedView {
   /// packed(const core::CellBlockSpan&), a page's piece at a time.
   template <class F, class P>
   std::uint32_t visit_cell(std::uint32_t cell, F&& f, P&& packed) const {
-    DirectoryEntry e;
-    std::memcpy(&e, pager_->access(layout_.directory_page(cell)) + layout_.directory_offset(cell),
-                sizeof e);
-    if (e.count == 0) return e.list;  // an empty cell's entry holds its empty-space distance
-    if (e.count & kPackedCell) {
-      std::uint32_t slot = e.list, triangles = e.count & ~kPackedCell;
-      std::uint32_t left = (triangles + core::kBlockLanes - 1) / core::kBlockLanes;
-      while (left > 0) {
-        const std::uint32_t n = std::min(left, layout_.blocks_per_page - slot % layout_.blocks_per_page);
-        const std::uint32_t in_piece = std::min(triangles, n * core::kBlockLanes);
-        packed(core::CellBlockSpan{
-            reinterpret_cast<const core::TriangleBlock*>(pager_->access(layout_.block_page(slot)) +
-                                                         layout_.block_offset(slot)),
-            n, in_piece});
-        slot += n;
-        left -= n;
-        triangles -= in_piece;
-      }
+    const std::byte* entry = pager_->access(layout_.directory_page(cell)) + layout_.directory_offset(cell);
+    std::uint32_t count, list;  // a DirectoryEntry's fields, each read as the branches need it
+    std::memcpy(&count, entry + offsetof(DirectoryEntry, count), sizeof count);
+    std::memcpy(&list, entry + offsetof(DirectoryEntry, list), sizeof list);
+    if (count == 0) return list;  // an empty cell's entry holds its empty-space distance
+    if (count & kPackedCell) {
+      const std::uint32_t triangles = count & ~kPackedCell;
+      const std::uint32_t blocks = (triangles + core::kBlockLanes - 1) / core::kBlockLanes;
+      const std::uint32_t offset = layout_.block_address_offset(list);
+      if (offset + blocks * std::uint32_t(sizeof(core::TriangleBlock)) <= layout_.page_size) [[likely]]
+        packed(core::CellBlockSpan{block_frame(list), blocks, triangles});
+      else
+        visit_chained_blocks(list, triangles, packed);
       return 0;
     }
-    std::uint32_t address = e.list, left = e.count;
+    std::uint32_t address = list, left = count;
     while (left > 0) {
       const std::uint32_t page = layout_.list_page(address), offset = layout_.list_offset(address);
       const std::uint32_t n = std::min(left, (layout_.page_size - offset) / std::uint32_t(sizeof(std::uint32_t)));
@@ -108,6 +103,27 @@ class PagedView {
   }
 
  private:
+  /// The block at byte `address` of the blocks segment.
+  const core::TriangleBlock* block_frame(std::uint32_t address) const {
+    return reinterpret_cast<const core::TriangleBlock*>(pager_->access(layout_.block_address_page(address)) +
+                                                        layout_.block_address_offset(address));
+  }
+  /// A packed cell whose blocks continue page after page: a piece per page.
+  template <class P>
+  void visit_chained_blocks(std::uint32_t address, std::uint32_t triangles, P& packed) const {
+    std::uint32_t left = (triangles + core::kBlockLanes - 1) / core::kBlockLanes;
+    while (left > 0) {
+      const std::uint32_t room =
+          (layout_.page_size - layout_.block_address_offset(address)) / std::uint32_t(sizeof(core::TriangleBlock));
+      const std::uint32_t n = std::min(left, room);
+      const std::uint32_t in_piece = std::min(triangles, n * core::kBlockLanes);
+      packed(core::CellBlockSpan{block_frame(address), n, in_piece});
+      left -= n;
+      triangles -= in_piece;
+      address = (address | (layout_.page_size - 1)) + 1;  // the next page's first block
+    }
+  }
+
   Pager* pager_;
   PageLayout layout_;  // a copy: its fields stay in the view, one load away
   core::GridInfo grid_;

@@ -29,9 +29,9 @@ PagerStats& PagerStats::operator+=(const PagerStats& o) {
 }
 
 std::size_t pager_table_bytes(const PageLayout& layout, std::uint32_t cache_pages) {
-  // + the list buffer, + alignment of the six arrays (64 B each at most)
+  // + the list buffer, + alignment of the five arrays (64 B each at most)
   return std::size_t(layout.pages) * 8 + std::size_t(cache_pages) * kPagerFrameOverheadBytes +
-         (2 * std::size_t(kPagerTouchedCapacity) + 1) * 4 + layout.page_size + 6 * 64;
+         (std::size_t(kPagerTouchedCapacity) + 1) * 4 + layout.page_size + 5 * 64;
 }
 
 namespace {
@@ -58,7 +58,6 @@ Pager::Pager(nodes::NodeContext& ctx, const PageLayout& layout, std::uint32_t ca
       frame_used_(ctx.arena(), cache_pages, "its LRU stamps"),
       events_(ctx.arena(), std::size_t(cache_pages) * 2, "its LRU stamp events"),
       touched_(ctx.arena(), kTouchedCapacity + 1, "its touched-page list"),
-      cleared_(ctx.arena(), kTouchedCapacity, "its list of pages touched in the pixel"),
       lines_(ctx.arena(),
              checked_frames(layout, std::uint64_t(home_frames_) + cache_pages + 1) * (layout.page_size / sizeof(Line)),
              "its home pages, page cache and list buffer") {
@@ -70,7 +69,7 @@ Pager::Pager(nodes::NodeContext& ctx, const PageLayout& layout, std::uint32_t ca
   cache_base_ = frames_ + (std::size_t(home_frames_) << layout.page_shift);
   list_buffer_ = reinterpret_cast<std::uint32_t*>(frames_ + (std::size_t(home_frames_ + cache_pages) << layout.page_shift));
   for (std::uint32_t s = 0; s < home_frames_; ++s)
-    table_[std::size_t(s) * nodes_ + ctx.id()].word = (s << layout.page_shift) | kUntouched;
+    table_[std::size_t(s) * nodes_ + ctx.id()].word = s << layout.page_shift;
   home_end_ = home_frames_ << layout.page_shift;
   stats_.home_pages = home_frames_;
   stats_.cache_pages = cache_frames_;
@@ -119,60 +118,53 @@ std::uint32_t Pager::lru_victim() {
   }
 }
 
-void Pager::untouch_all() {
-  for (std::uint32_t i = 0; i < cleared_n_; ++i) table_[cleared_[i]].word |= kUntouched;  // kNotResident stays
-  cleared_n_ = 0;
-}
-
 const std::byte* Pager::first_access(std::uint32_t page) {
   PageEntry* const entry = &table_[page];
   const std::uint32_t word = entry->word;
-  // The common case, with no call (so no registers to save): a resident
-  // page's first touch in this pixel, with room in both lists.
-  if (entry->stamp != pixel_stamp_ && word != kNotResident && cleared_n_ < kTouchedCapacity &&
-      touched_n_ + 1 < kTouchedCapacity) [[likely]] {
+  // The common case, with no call (so no registers to save): a home page's
+  // first touch in this pixel (kNotResident lies above every home frame).
+  // A resident page's stamp is never the pixel's with kEvictedInPixel (an
+  // eviction makes it not resident), so this is its first touch.
+  if (word < home_end_) [[likely]] {
     ++pixel_pages_;
     entry->stamp = pixel_stamp_;
-    if (word >= home_end_) touched_[touched_n_++] = page;  // a cache frame
-    cleared_[cleared_n_++] = page;
-    entry->word = word & ~kUntouched;
-    return frames_ + (word & ~kUntouched);
+    return frames_ + word;
   }
   return touch(page);
 }
 
 const std::byte* Pager::touch(std::uint32_t page) {
-  // Locals and one entry pointer: the lists' stores could alias the entry.
+  // Locals and one entry pointer: the list's stores could alias the entry.
   PageEntry* const entry = &table_[page];
-  std::uint32_t word = entry->word;
-  // Touched before in this pixel (then evicted, or untouched early as the
-  // cleared list filled): not a new distinct page, and not in the touched
-  // list a second time.
-  const bool first = entry->stamp != pixel_stamp_;
+  // Touched before in this pixel, then evicted: not a new distinct page, and
+  // not in the touched list a second time.
+  const bool first = (entry->stamp & ~kEvictedInPixel) != pixel_stamp_;
   if (first) {
     ++pixel_pages_;
-    entry->stamp = pixel_stamp_;
-    if (word >= home_end_) {  // a cache frame, or not resident
+    if (entry->word >= home_end_) {  // a cache frame, or not resident
       touched_[touched_n_++] = page;
       if (touched_n_ == kTouchedCapacity) [[unlikely]] flush_recency();
     }
   }
-  if (word == kNotResident) [[unlikely]] {
+  if (entry->word == kNotResident) [[unlikely]] {
     if (!first) ++stats_.cache_accesses;  // counted here, as it is not in the touched list
     fault(page);  // may evict other pages
-    word = entry->word;
   }
-  if (cleared_n_ == kTouchedCapacity) [[unlikely]] untouch_all();
-  cleared_[cleared_n_++] = page;
-  word &= ~kUntouched;
-  entry->word = word;  // on the fast path until the pixel ends or an eviction
-  return frames_ + word;
+  entry->stamp = pixel_stamp_;  // on the fast path until the pixel ends or an eviction
+  return frames_ + entry->word;
+}
+
+void Pager::next_pixel_stamp() {
+  if (++pixel_stamp_ == kEvictedInPixel) {  // wrapped: forget every stamp
+    for (std::size_t p = 0; p < table_.size(); ++p) table_[p].stamp = 0;
+    pixel_stamp_ = 1;
+  }
 }
 
 void Pager::end_pixel() {
   flush_recency();
-  untouch_all();
   if (!in_pixel_) return;
+  next_pixel_stamp();  // touches until the next pixel count for nobody
   ++stats_.pixels;
   stats_.pixel_pages += pixel_pages_;
   stats_.pixel_pages_max = std::max(stats_.pixel_pages_max, pixel_pages_);
@@ -181,10 +173,7 @@ void Pager::end_pixel() {
 
 void Pager::begin_pixel() {
   end_pixel();
-  if (++pixel_stamp_ == 0) {  // wrapped: forget every stamp
-    for (std::size_t p = 0; p < table_.size(); ++p) table_[p].stamp = 0;
-    pixel_stamp_ = 1;
-  }
+  next_pixel_stamp();
   pixel_pages_ = 0;
   in_pixel_ = true;
   // Interrupt level: answer page requests that came in while we computed
@@ -235,10 +224,12 @@ const std::byte* Pager::fault(std::uint32_t page) {
   } else {
     victim = lru_victim();
     // Off access()'s fast path; its stamp remembers a touch in this pixel.
-    table_[frame_page_[victim - home_frames_]].word = kNotResident;
+    PageEntry& evicted = table_[frame_page_[victim - home_frames_]];
+    evicted.word = kNotResident;
+    if (evicted.stamp == pixel_stamp_) evicted.stamp |= kEvictedInPixel;
     frame_page_[victim - home_frames_] = kNone;
     ++stats_.evictions;
-  }
+    }
 
   const nodes::NodeId home = PageLayout::home(page, nodes_);
   ctx_.send(home, nodes::MessageType::kPageRequest, PageRequestMsg{page});
@@ -288,7 +279,7 @@ const std::byte* Pager::fault(std::uint32_t page) {
   ctx_.advance_to(arrival, nodes::WaitKind::kCommunication);
   frame_page_[victim - home_frames_] = page;
   stamp(victim - home_frames_);
-  table_[page].word = (victim << layout_.page_shift) | kUntouched;
+  table_[page].word = victim << layout_.page_shift;
   // Compute again only with a run permit, answering requests meanwhile.
   while (released && !ctx_.try_resume()) {
     ctx_.wait_for_mail(0);

@@ -17,7 +17,9 @@
 // is still its frame's (O(1) amortised, "at no extra cost" as in the
 // paper). The stamps are given lazily, from a list of the pixel's first
 // touches, at the pixel's end or before a victim is chosen, which keeps
-// the traversal's hot path a page-table read.
+// the traversal's hot path a page-table read. A page's entry carries the
+// stamp of the last pixel that touched it, so a new pixel starts by
+// advancing one counter, with no pass over the pages touched.
 //
 // Virtual time: a request departs at the faulting node's clock; the home
 // node answers at interrupt level, at the request's arrival plus the
@@ -27,8 +29,8 @@
 //
 // Memory (all in the node's arena): the page table (8 bytes per page of the
 // whole database), the home pages, the cache frames, 24 bytes per cache
-// frame (its page, its LRU stamp, two queued stamp events) and two page
-// lists of the current pixel (1 KiB each). A node's frames (home pages,
+// frame (its page, its LRU stamp, two queued stamp events) and the list of
+// the current pixel's first touches of non-home pages (1 KiB). A node's frames (home pages,
 // cache, list buffer) lie within 4 GiB: the page table holds 32-bit offsets.
 //
 // Thread safety: owner node thread only (setup runs on the host's thread
@@ -76,9 +78,8 @@ struct PagerStats {
 };
 
 
-/// Length of a pager's two page lists: its touched list (first touches of
-/// non-home pages noted before their LRU update) and its list of pages
-/// taken off access()'s fast path at the pixel's end.
+/// Length of a pager's touched list: first touches of non-home pages noted
+/// before their LRU update.
 inline constexpr std::uint32_t kPagerTouchedCapacity = 256;
 
 /// Most bytes of one node's frames (home pages, cache, list buffer): the
@@ -90,7 +91,7 @@ inline constexpr std::uint64_t kPagerMaxFrameBytes = std::uint64_t(1) << 32;
 inline constexpr std::size_t kPagerFrameOverheadBytes = 24;
 
 /// Arena bytes a pager needs besides its frames: page table, LRU stamps,
-/// page lists and list buffer.
+/// touched list and list buffer.
 std::size_t pager_table_bytes(const PageLayout& layout, std::uint32_t cache_pages);
 
 class Pager {
@@ -112,24 +113,25 @@ class Pager {
   /// resident. Every call counts as an access and marks the page touched in
   /// the current pixel (distinct pages per pixel).
   ///
-  /// The hot path is one page-table read and one bit test, the same for
-  /// one node as for 64: an entry whose word has its low bit clear was
-  /// touched in this pixel and is resident, and the word is its frame's
+  /// The hot path is one page-table read and one compare, the same for one
+  /// node as for 64: an entry whose stamp is the current pixel's was
+  /// touched in this pixel and is resident, and its word is its frame's
   /// byte offset, so the frame is returned at once. Any other access is a
-  /// page's first touch in the pixel (or a touch after its eviction, or
-  /// after a full list took it off the fast path, in this pixel):
-  /// first_access() counts the distinct page, notes a non-home
-  /// page's first touch in a short list, faults when the page is not
-  /// resident, and clears the bit until the pixel ends. The list updates the
-  /// pages' LRU recency at the pixel's end or at the next fault
+  /// page's first touch in the pixel (or its touch after an eviction in
+  /// this pixel): first_access() counts the distinct page, notes a
+  /// non-home page's first touch in a short list, faults when the page is
+  /// not resident, and gives the entry the pixel's stamp. The list updates
+  /// the pages' LRU recency at the pixel's end or at the next fault
   /// (flush_recency), before any victim is chosen, so evictions are those
-  /// of an LRU updated at each first touch. Throws what the messaging
-  /// throws (nodes::RunAborted) and std::logic_error on a protocol error.
+  /// of an LRU updated at each first touch. A new pixel needs no pass over
+  /// the touched pages: it only advances the stamp. Throws what the
+  /// messaging throws (nodes::RunAborted) and std::logic_error on a
+  /// protocol error.
   const std::byte* access(std::uint32_t page) {
     ++stats_.accesses;
-    const std::uint32_t word = table_[page].word;
-    if (!(word & kUntouched)) [[likely]]
-      return frames_ + word;
+    const PageEntry& e = table_[page];
+    if (e.stamp == pixel_stamp_) [[likely]]
+      return frames_ + e.word;
     return first_access(page);
   }
   /// True if `p` (from access()) lies in a cache frame, which a later
@@ -159,20 +161,21 @@ class Pager {
   bool resident(std::uint32_t page) const { return table_[page].word != kNotResident; }
 
  private:
-  /// PageEntry::word of a page that is not resident (odd: off the fast path).
+  /// PageEntry::word of a page that is not resident.
   static constexpr std::uint32_t kNotResident = 0xffffffffu;
-  /// PageEntry::word's low bit: the page was not touched in this pixel.
-  static constexpr std::uint32_t kUntouched = 1;
+  /// PageEntry::stamp's top bit: the page was touched in the pixel whose
+  /// stamp the other bits hold, then evicted (counted, off the fast path).
+  static constexpr std::uint32_t kEvictedInPixel = 0x80000000u;
   static constexpr std::uint32_t kNone = 0xffffffffu;
-  /// First touches of non-home pages noted before the LRU is updated; and
-  /// pages whose word had kUntouched cleared in this pixel.
+  /// First touches of non-home pages noted before the LRU is updated.
   static constexpr std::uint32_t kTouchedCapacity = kPagerTouchedCapacity;
   struct PageEntry {
     /// Resident: the byte offset of its frame from frames_ (a multiple of
-    /// 64), | kUntouched unless touched in this pixel; else kNotResident.
+    /// 64); else kNotResident.
     std::uint32_t word = kNotResident;
-    /// Pixel stamp of the last first touch (distinct pages per pixel); 0
-    /// never touched.
+    /// Stamp of the pixel of its last first touch (0: never touched; the
+    /// current pixel's: resident and touched in this pixel, access()'s fast
+    /// path), | kEvictedInPixel when evicted since.
     std::uint32_t stamp = 0;
   };
   struct alignas(64) Line {
@@ -187,22 +190,21 @@ class Pager {
   };
 
   /// access()'s other path: the page's first touch in this pixel, or its
-  /// touch after an eviction or an early untouch (a full list) in this
-  /// pixel. Handles here only a resident page's first touch with room in
-  /// both lists; every other case goes to touch().
+  /// touch after an eviction in this pixel. Handles here only a resident
+  /// page's first touch with room in the touched list; every other case
+  /// goes to touch().
   [[gnu::noinline]] const std::byte* first_access(std::uint32_t page);
-  /// first_access() in every case (a fault, a touch after an eviction or
-  /// an early untouch, a full list).
+  /// first_access() in every case (a fault, a touch after an eviction, a
+  /// full list).
   [[gnu::noinline]] const std::byte* touch(std::uint32_t page);
   /// Gives every page in the touched list a new LRU stamp, in first-touch
   /// order, and counts them as cache accesses.
   [[gnu::noinline]] void flush_recency();
-  /// Sets kUntouched again in every page of the cleared list (the pixel's
-  /// end, or the list is full: those pages take first_access() again,
-  /// which knows them by their stamp).
-  [[gnu::noinline]] void untouch_all();
+  /// Advances the pixel stamp (every entry leaves the fast path); on
+  /// wrapping, forgets every entry's stamp.
+  void next_pixel_stamp();
   /// The frame index of resident page entry `e`.
-  std::uint32_t frame_of(const PageEntry& e) const { return (e.word & ~kUntouched) >> layout_.page_shift; }
+  std::uint32_t frame_of(const PageEntry& e) const { return e.word >> layout_.page_shift; }
   /// Gives cache frame `f` (index among the cache frames) a new LRU stamp.
   void stamp(std::uint32_t f) {
     frame_used_[f] = ++lru_clock_;
@@ -235,15 +237,14 @@ class Pager {
   nodes::ArenaArray<LruEvent> events_;           ///< ring of stamp events, oldest first (2 per cache frame)
   std::size_t events_head_ = 0, events_n_ = 0;
   nodes::ArenaArray<std::uint32_t> touched_;     ///< kTouchedCapacity + 1 slots
-  nodes::ArenaArray<std::uint32_t> cleared_;     ///< pages with kUntouched cleared, kTouchedCapacity slots
   nodes::ArenaArray<Line> lines_;
   std::byte* frames_ = nullptr;
   const std::byte* cache_base_ = nullptr;  ///< first cache frame
   std::uint32_t* list_buffer_ = nullptr;   ///< one page after the cache frames
   std::uint32_t touched_n_ = 0;
-  std::uint32_t cleared_n_ = 0;
   std::uint32_t lru_clock_ = 0;  ///< last LRU stamp given
-  std::uint32_t pixel_stamp_ = 1;  ///< advances by 1 per pixel; 0 = never
+  /// Advances at each pixel's start and end, below kEvictedInPixel; 0 = never.
+  std::uint32_t pixel_stamp_ = 1;
   std::uint32_t pixel_pages_ = 0;
   bool in_pixel_ = false;
   PagerStats stats_;

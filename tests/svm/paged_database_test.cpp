@@ -131,10 +131,14 @@ TEST_CASE("paged database: packed cells (--pack-cells) hold their blocks in the 
         }
         ++packed;
         REQUIRE(e.count == (n | kPackedCell));
-        const std::uint32_t first = l.block_page(e.list), last = l.block_page(e.list + (k1 - k0) - 1);
+        const std::uint32_t slot0 = l.block_slot(e.list);
+        REQUIRE(l.block_address(slot0) == e.list);
+        REQUIRE(l.block_address_page(e.list) == l.block_page(slot0));
+        REQUIRE(l.block_address_offset(e.list) == l.block_offset(slot0));
+        const std::uint32_t first = l.block_page(slot0), last = l.block_page(slot0 + (k1 - k0) - 1);
         if (k1 - k0 <= per_page) REQUIRE(first == last);  // a cell that fits in a page stays in one
         else ++spanning;
-        for (std::uint32_t k = k0, slot = e.list; k < k1; ++k, ++slot) {
+        for (std::uint32_t k = k0, slot = slot0; k < k1; ++k, ++slot) {
           REQUIRE(l.block_page(slot) >= l.block_first);
           REQUIRE(l.block_page(slot) < l.block_first + l.block_pages);
           REQUIRE(l.block_offset(slot) + 320 <= ps);
