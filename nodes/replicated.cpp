@@ -35,7 +35,8 @@ struct NodeState {
   ArenaArray<std::uint32_t> cell_primitives;
   ArenaArray<std::uint8_t> empty_distance;
   ArenaArray<core::Light> lights;
-  ArenaArray<float> pixels;  ///< one work item's outgoing pixels
+  ArenaArray<float> pixels;  ///< outgoing pixel blocks (one message's payload)
+  PixelBatch batch;          ///< over `pixels`
   core::ShadingScratch* scratch = nullptr;
   Arena* arena = nullptr;
   core::RenderStats stats;
@@ -79,7 +80,7 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
   // Fail early, with the sizes, when a copy cannot fit beside the mailbox.
   const core::DatabaseArrays host_arrays = core::DatabaseArrays::of(db, grid);
   const std::size_t copy_bytes = replicated_bytes_per_node(db, grid);
-  const std::size_t fixed = Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload + std::size_t(pixels_payload_bytes(params.item_w, params.item_h, layout.channels)) +
+  const std::size_t fixed = Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload + std::size_t(m.max_payload / sizeof(float)) * sizeof(float) +
                             sizeof(core::ShadingScratch);
   if (copy_bytes + fixed > m.node_memory)
     throw std::runtime_error(fmt::format(
@@ -97,7 +98,7 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
 
   const std::vector<Rect> submaps = make_submaps(w, h, m.nodes);
   std::vector<std::unique_ptr<NodeState>> states(m.nodes);
-  const std::uint32_t item_floats = std::uint32_t(params.item_w * params.item_h) * layout.channels;
+  const std::uint32_t batch_floats = m.max_payload / std::uint32_t(sizeof(float));  // a pixel batch's buffer
 
   // The host loads each node's memory: the load phase, outside virtual time.
   auto setup = [&](NodeContext& ctx) {
@@ -111,7 +112,8 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
     s->cell_primitives = copy_to_arena(a, host_arrays.cell_primitives, "the database copy (cell lists)");
     s->empty_distance = copy_to_arena(a, host_arrays.empty_distance, "the database copy (empty-space distances)");
     s->lights = copy_to_arena(a, std::span<const core::Light>(db.lights), "the lights");
-    s->pixels = ArenaArray<float>(a, item_floats, "its pixel buffer");
+    s->pixels = ArenaArray<float>(a, batch_floats, "its pixel buffer");
+    s->batch = PixelBatch(std::as_writable_bytes(s->pixels.span()));
     s->scratch = a.create<core::ShadingScratch>("its tracing scratch");
     s->cost_model = m.cost_model;
     states[ctx.id()] = std::move(s);
@@ -130,7 +132,7 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
     ctx.set_work_meter(&NodeState::work_seconds, &s);
     s.work = run_work_farm(ctx, s.submap, params.item_w, params.item_h,
                            [&](NodeContext& c, const Rect& r) {
-                             float* o = s.pixels.data();
+                             float* o = s.batch.add(c, r, layout.channels);
                              for (int y = r.y0; y < r.y1; ++y)
                                for (int x = r.x0; x < r.x1; ++x) {
                                  const core::PixelResult px =
@@ -138,9 +140,8 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
                                  layout.pack(px, o);
                                  o += layout.channels;
                                }
-                             send_pixels(c, r, layout.channels,
-                                         std::span<const float>(s.pixels.data(), std::size_t(r.area()) * layout.channels));
-                           });
+                           },
+                           {}, &s.batch);
     s.stats = scratch.stats;
     s.stats.traversal = scratch.traversal.stats;
   };

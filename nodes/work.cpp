@@ -84,19 +84,59 @@ WorkStats& WorkStats::operator+=(const WorkStats& o) {
 }
 
 std::uint32_t pixels_payload_bytes(std::int32_t item_w, std::int32_t item_h, std::uint32_t channels) {
-  return std::uint32_t(sizeof(PixelsMsg) + std::size_t(item_w) * item_h * channels * sizeof(float));
+  return std::uint32_t(sizeof(PixelBatchMsg) + sizeof(PixelsMsg) +
+                       std::size_t(item_w) * item_h * channels * sizeof(float));
+}
+
+namespace {
+/// The departure stamp of a kPixels message. The host is outside the
+/// emulated machine and no figure uses its clock: under the CPU clock a
+/// message leaves stamped with the node's last synchronised clock, which
+/// saves a system call per message.
+double pixels_departure(NodeContext& ctx) {
+  return ctx.compute_clock() == ComputeClock::kCpu ? ctx.last_synced_clock() : -1;
+}
+}  // namespace
+
+float* PixelBatch::add(NodeContext& ctx, const Rect& rect, std::uint32_t channels) {
+  const std::size_t need = sizeof(PixelsMsg) + std::size_t(rect.area()) * channels * sizeof(float);
+  if (used_ + need > buffer_.size()) {
+    flush(ctx);
+    if (used_ + need > buffer_.size())
+      throw std::length_error(fmt::format("{}: a {}x{}x{} pixel block needs {} B, the pixel buffer holds {} B",
+                                          node_name(ctx.id()), rect.width(), rect.height(), channels,
+                                          sizeof(PixelBatchMsg) + need, buffer_.size()));
+  }
+  const PixelsMsg head{rect, channels};
+  std::memcpy(buffer_.data() + used_, &head, sizeof head);
+  float* pixels = reinterpret_cast<float*>(buffer_.data() + used_ + sizeof head);
+  used_ += need;
+  ++blocks_;
+  return pixels;
+}
+
+void PixelBatch::flush(NodeContext& ctx) {
+  if (blocks_ == 0) return;
+  const PixelBatchMsg head{blocks_};
+  std::memcpy(buffer_.data(), &head, sizeof head);
+  const std::span<const std::byte> parts[1] = {buffer_.first(used_)};
+  ctx.send(kHost, MessageType::kPixels, std::span<const std::span<const std::byte>>(parts, 1),
+           pixels_departure(ctx));
+  used_ = sizeof(PixelBatchMsg);
+  blocks_ = 0;
 }
 
 void send_pixels(NodeContext& ctx, const Rect& rect, std::uint32_t channels, std::span<const float> pixels) {
   if (pixels.size() != std::size_t(rect.area()) * channels)
     throw std::logic_error(fmt::format("send_pixels: {} floats for a {}x{}x{} block", pixels.size(), rect.width(),
                                        rect.height(), channels));
+  const PixelBatchMsg batch{1};
   const PixelsMsg head{rect, channels};
-  // The host is outside the emulated machine and no figure uses its clock:
-  // under the CPU clock the block leaves stamped with the node's last
-  // synchronised clock, which saves a system call per work item.
-  const double depart = ctx.compute_clock() == ComputeClock::kCpu ? ctx.last_synced_clock() : -1;
-  ctx.send(kHost, MessageType::kPixels, head, std::as_bytes(pixels), depart);
+  const std::span<const std::byte> parts[3] = {std::as_bytes(std::span<const PixelBatchMsg, 1>(&batch, 1)),
+                                               std::as_bytes(std::span<const PixelsMsg, 1>(&head, 1)),
+                                               std::as_bytes(pixels)};
+  ctx.send(kHost, MessageType::kPixels, std::span<const std::span<const std::byte>>(parts, 3),
+           pixels_departure(ctx));
 }
 
 namespace {
@@ -161,7 +201,7 @@ class Farm {
 
 WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_w, std::int32_t item_h,
                         const std::function<void(NodeContext&, const Rect&)>& render_item,
-                        const OtherMessageHandler& other) {
+                        const OtherMessageHandler& other, PixelBatch* batch) {
   Farm farm(ctx, other);
   WorkPool pool(submap, item_w, item_h);
   bool have_grant = false, request_out = false, done = false;
@@ -195,6 +235,7 @@ WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_
       continue;
     }
     if (!request_out) {
+      if (batch) batch->flush(ctx);  // the host gets our pixels before we idle
       NodeId first = ctx.topology().ring_next(ctx.id());
       if (ctx.work_request_route() == WorkRequestRoute::kLastGrantor && farm.last_grantor != kHost)
         first = farm.last_grantor;
@@ -226,6 +267,7 @@ WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_
     }
     ctx.note_wait(WaitReason::kNone);
   }
+  if (batch) batch->flush(ctx);
   ctx.release_run();  // our work is over
   ctx.mark_work_done();
   farm.stats.done_time_s = ctx.work_done_time();
@@ -253,17 +295,28 @@ std::uint64_t gather_pixels(
     const Message m = host.receive(WaitKind::kIdle);
     switch (m.type()) {
       case MessageType::kPixels: {
-        const PixelsMsg head = m.as<PixelsMsg>();
-        const std::span<const std::byte> tail = m.tail<PixelsMsg>();
-        const std::size_t count = std::size_t(head.rect.area()) * head.channels;
-        if (tail.size() != count * sizeof(float))
-          throw std::logic_error(fmt::format("host: pixel message from {} has {} B for a {}x{}x{} block",
-                                             node_name(m.source()), tail.size(), head.rect.width(),
-                                             head.rect.height(), head.channels));
-        buffer.resize(count);
-        std::memcpy(buffer.data(), tail.data(), tail.size());
-        store(m.source(), head.rect, head.channels, buffer);
-        pixels += std::uint64_t(head.rect.area());
+        std::span<const std::byte> rest = m.tail<PixelBatchMsg>();
+        const std::uint32_t blocks = m.as<PixelBatchMsg>().blocks;
+        for (std::uint32_t b = 0; b < blocks; ++b) {
+          PixelsMsg head;
+          if (rest.size() < sizeof head)
+            throw std::logic_error(fmt::format("host: pixel message from {} ends in block {} of {}",
+                                               node_name(m.source()), b, blocks));
+          std::memcpy(&head, rest.data(), sizeof head);
+          const std::size_t count = std::size_t(std::max<std::int64_t>(head.rect.area(), 0)) * head.channels;
+          if (rest.size() - sizeof head < count * sizeof(float))
+            throw std::logic_error(fmt::format("host: pixel message from {} has {} B for a {}x{}x{} block",
+                                               node_name(m.source()), rest.size() - sizeof head,
+                                               head.rect.width(), head.rect.height(), head.channels));
+          buffer.resize(count);
+          std::memcpy(buffer.data(), rest.data() + sizeof head, count * sizeof(float));
+          store(m.source(), head.rect, head.channels, buffer);
+          pixels += std::uint64_t(head.rect.area());
+          rest = rest.subspan(sizeof head + count * sizeof(float));
+        }
+        if (!rest.empty())
+          throw std::logic_error(fmt::format("host: pixel message from {} has {} B after its {} blocks",
+                                             node_name(m.source()), rest.size(), blocks));
         break;
       }
       case MessageType::kNodeDone: ++done; break;

@@ -78,7 +78,12 @@ static_assert(kMaxNodes <= 0xffff, "WorkRequestMsg holds node ids and hops in 16
 struct WorkGrantMsg {
   Rect item;
 };
-/// Header of a kPixels message; followed by width*height*channels floats, row-major.
+/// Header of a kPixels message: `blocks` pixel blocks follow, each a
+/// PixelsMsg and its width*height*channels floats, row-major.
+struct PixelBatchMsg {
+  std::uint32_t blocks;
+};
+/// Header of one pixel block in a kPixels message.
 struct PixelsMsg {
   Rect rect;
   std::uint32_t channels;
@@ -102,16 +107,50 @@ struct WorkStats {
 /// returns false if it does not know them either (then the farm throws).
 using OtherMessageHandler = std::function<bool(NodeContext&, const Message&)>;
 
+/// A node's finished pixel blocks on their way to the host, several in one
+/// kPixels message. A message per work item costs the node more than
+/// rendering a few of its pixels: the host reads each message on another
+/// core, so every message slot the node writes comes back from the host's
+/// cache. The host needs the pixels only by the end of the run. Blocks
+/// are sent in the order they were added; run_work_farm sends the batch
+/// before the node asks for work and before it reports done.
+///
+/// Thread safety: owner node thread only.
+class PixelBatch {
+ public:
+  PixelBatch() = default;
+  /// `buffer`: the node's memory for one message's payload (in its arena;
+  /// at most the machine's max_payload bytes, 4-byte aligned).
+  explicit PixelBatch(std::span<std::byte> buffer) : buffer_(buffer) {}
+  /// Where to write the rect.area() * channels floats (row-major) of block
+  /// `rect`, valid until the next call; sends the batch first when the
+  /// block does not fit beside it. Throws std::length_error when one block
+  /// needs more than the buffer, and what sending throws.
+  float* add(NodeContext& ctx, const Rect& rect, std::uint32_t channels);
+  /// Sends the blocks added since the last send, if any, in one message.
+  void flush(NodeContext& ctx);
+  /// Blocks waiting to be sent.
+  std::uint32_t blocks() const { return blocks_; }
+
+ private:
+  std::span<std::byte> buffer_;
+  std::size_t used_ = sizeof(PixelBatchMsg);
+  std::uint32_t blocks_ = 0;
+};
+
 /// A node's side of the distribution: renders `submap` item by item with
 /// render_item(ctx, rect), serving requests between items, then requests
 /// work until its request returns, reports done to the host and serves
-/// until the host's shutdown. Returns the node's counters. Throws what
-/// render_item throws, RunAborted, std::logic_error on a protocol error.
+/// until the host's shutdown. `batch`, when given, is the pixel batch that
+/// render_item fills: it is sent before each work request and before the
+/// node reports done. Returns the node's counters. Throws what render_item
+/// throws, RunAborted, std::logic_error on a protocol error.
 WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_w, std::int32_t item_h,
                         const std::function<void(NodeContext&, const Rect&)>& render_item,
-                        const OtherMessageHandler& other = {});
+                        const OtherMessageHandler& other = {}, PixelBatch* batch = nullptr);
 
-/// Sends `pixels` (rect.area() * channels floats, row-major) to the host.
+/// Sends `pixels` (rect.area() * channels floats, row-major) to the host in
+/// a message of its own.
 void send_pixels(NodeContext& ctx, const Rect& rect, std::uint32_t channels, std::span<const float> pixels);
 
 /// The host's side: receives pixel blocks and calls store(source, rect,
@@ -122,7 +161,7 @@ std::uint64_t gather_pixels(
     const std::function<void(NodeId, const Rect&, std::uint32_t, std::span<const float>)>& store,
     const OtherMessageHandler& other = {});
 
-/// Payload bytes a kPixels message of an item_w x item_h block needs.
+/// Payload bytes a kPixels message of one item_w x item_h block needs.
 std::uint32_t pixels_payload_bytes(std::int32_t item_w, std::int32_t item_h, std::uint32_t channels);
 
 }  // namespace raynode::nodes

@@ -38,7 +38,8 @@ struct NodeState {
   Rect submap;
   nodes::ArenaArray<core::Material> materials;
   nodes::ArenaArray<core::Light> lights;
-  nodes::ArenaArray<float> pixels;  ///< one work item's outgoing pixels
+  nodes::ArenaArray<float> pixels;  ///< outgoing pixel blocks (one message's payload)
+  nodes::PixelBatch batch;          ///< over `pixels`
   Pager* pager = nullptr;
   core::ShadingScratch* scratch = nullptr;
   nodes::Arena* arena = nullptr;
@@ -157,10 +158,10 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
 
   SvmResult out;
   out.layout = layout;
-  const std::uint32_t item_floats = std::uint32_t(params.item_w * params.item_h) * pixel_layout.channels;
+  const std::uint32_t batch_floats = m.max_payload / std::uint32_t(sizeof(float));  // a pixel batch's buffer
   out.node_fixed_bytes = nodes::Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload +
                          pager_table_bytes(layout, 0) + sizeof(Pager) + in.materials.size_bytes() +
-                         in.lights.size_bytes() + item_floats * sizeof(float) + sizeof(core::ShadingScratch) +
+                         in.lights.size_bytes() + batch_floats * sizeof(float) + sizeof(core::ShadingScratch) +
                          message_reserve(m.max_payload);
   // Fail before starting, with the sizes, when a node cannot hold its part.
   std::vector<std::uint32_t> cache(m.nodes);
@@ -187,7 +188,8 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
     s->arena = &a;
     s->materials = nodes::copy_to_arena(a, in.materials, "the materials");
     s->lights = nodes::copy_to_arena(a, in.lights, "the lights");
-    s->pixels = nodes::ArenaArray<float>(a, item_floats, "its pixel buffer");
+    s->pixels = nodes::ArenaArray<float>(a, batch_floats, "its pixel buffer");
+    s->batch = nodes::PixelBatch(std::as_writable_bytes(s->pixels.span()));
     s->scratch = a.create<core::ShadingScratch>("its tracing scratch");
     s->cost_model = m.cost_model;
     s->pager = a.create<Pager>("its pager", ctx, layout, cache[ctx.id()]);
@@ -213,7 +215,7 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
     s.work = nodes::run_work_farm(
         ctx, s.submap, params.item_w, params.item_h,
         [&](NodeContext& c, const Rect& r) {
-          float* o = s.pixels.data();
+          float* o = s.batch.add(c, r, pixel_layout.channels);
           for (int y = r.y0; y < r.y1; ++y)
             for (int x = r.x0; x < r.x1; ++x) {
               pager.begin_pixel();
@@ -224,10 +226,8 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
               o += pixel_layout.channels;
             }
           pager.end_pixel();
-          nodes::send_pixels(c, r, pixel_layout.channels,
-                             std::span<const float>(s.pixels.data(), std::size_t(r.area()) * pixel_layout.channels));
         },
-        [&](NodeContext&, const nodes::Message& msg) { return pager.serve(msg); });
+        [&](NodeContext&, const nodes::Message& msg) { return pager.serve(msg); }, &s.batch);
     s.stats = scratch.stats;
     s.stats.traversal = scratch.traversal.stats;
     s.pager_stats = pager.stats();

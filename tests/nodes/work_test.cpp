@@ -1,6 +1,8 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <span>
+#include <stdexcept>
 #include <vector>
 
 #include "nodes/machine.h"
@@ -137,4 +139,81 @@ TEST_CASE("work: requests sent first to the last grantor travel fewer hops than 
     forwarded[i++] = total.requests_forwarded;
   }
   CHECK(forwarded[1] < forwarded[0]);  // measured: ~0.4x
+}
+
+TEST_CASE("work: a pixel batch carries several blocks a message, every pixel once, and refuses a block beyond its buffer") {
+  // Room for three 3x3 blocks of 2 channels a message: 4 + 3 * (20 + 72) B.
+  constexpr std::uint32_t kChannels = 2, kPerMessage = 3;
+  MachineParams p;
+  p.nodes = 3;
+  p.timeout_s = 120;
+  p.max_payload = std::uint32_t(sizeof(PixelBatchMsg) + kPerMessage * (sizeof(PixelsMsg) + 9 * kChannels * sizeof(float)));
+  const int w = 31, h = 20;  // edge items are smaller than 3x3
+  const std::vector<Rect> maps = make_submaps(w, h, p.nodes);
+  std::vector<WorkStats> stats(p.nodes);
+  std::vector<int> seen(std::size_t(w) * h, 0);
+  Machine machine(p);
+  const RunReport report = machine.run(
+      [&](NodeContext& ctx) {
+        std::vector<float> buffer(p.max_payload / sizeof(float));
+        PixelBatch batch(std::as_writable_bytes(std::span<float>(buffer)));
+        stats[ctx.id()] = run_work_farm(
+            ctx, maps[ctx.id()], 3, 3,
+            [&](NodeContext& c, const Rect& r) {
+              float* o = batch.add(c, r, kChannels);
+              for (int y = r.y0; y < r.y1; ++y)
+                for (int x = r.x0; x < r.x1; ++x, o += kChannels) {
+                  o[0] = float(x + 1000 * int(c.id()));
+                  o[1] = float(y);
+                }
+            },
+            {}, &batch);
+        CHECK(batch.blocks() == 0);  // all sent before the node reported done
+      },
+      [&](NodeContext& host) {
+        gather_pixels(host, [&](NodeId src, const Rect& r, std::uint32_t ch, std::span<const float> px) {
+          REQUIRE(ch == kChannels);
+          REQUIRE(px.size() == std::size_t(r.area()) * kChannels);
+          for (int y = r.y0; y < r.y1; ++y)
+            for (int x = r.x0; x < r.x1; ++x) {
+              const float* v = &px[(std::size_t(y - r.y0) * r.width() + (x - r.x0)) * kChannels];
+              CHECK(v[0] == float(x + 1000 * int(src)));
+              CHECK(v[1] == float(y));
+              ++seen[std::size_t(y) * w + x];
+            }
+        });
+      });
+  CHECK(std::all_of(seen.begin(), seen.end(), [](int n) { return n == 1; }));
+  for (std::uint32_t i = 0; i < p.nodes; ++i) {
+    CAPTURE(i);
+    const std::uint64_t items = stats[i].items_own + stats[i].items_received;
+    const std::uint64_t messages =
+        report.nodes[i].counters.sent[std::size_t(MessageType::kPixels)].messages;
+    const std::uint64_t bytes = items * sizeof(PixelsMsg) + stats[i].pixels * kChannels * sizeof(float);
+    CHECK(messages * (p.max_payload - sizeof(PixelBatchMsg)) >= bytes);  // none holds more than fits
+    CHECK(messages <= (items + kPerMessage - 1) / kPerMessage + stats[i].requests_sent);  // full but at flushes
+    CHECK(messages < items);
+  }
+
+  // One node, a buffer for 16 bytes: a block of 1 pixel needs 4 + 20 + 4.
+  MachineParams q;
+  q.nodes = 1;
+  q.timeout_s = 60;
+  bool refused = false;
+  Machine small(q);
+  small.run(
+      [&](NodeContext& ctx) {
+        std::vector<float> buffer(4);
+        PixelBatch batch(std::as_writable_bytes(std::span<float>(buffer)));
+        try {
+          batch.add(ctx, Rect{0, 0, 1, 1}, 1);
+        } catch (const std::length_error&) {
+          refused = true;
+        }
+        ctx.send(kHost, MessageType::kNodeDone, WorkRequestMsg{ctx.id(), 0});
+        Message m;
+        while (!ctx.poll(m)) ctx.wait_for_mail(0);
+      },
+      [&](NodeContext& host) { gather_pixels(host, [](NodeId, const Rect&, std::uint32_t, std::span<const float>) {}); });
+  CHECK(refused);
 }
