@@ -184,6 +184,7 @@ TEST_CASE("work: a pixel batch carries several blocks a message, every pixel onc
         });
       });
   CHECK(std::all_of(seen.begin(), seen.end(), [](int n) { return n == 1; }));
+  std::uint64_t all_items = 0, all_messages = 0;
   for (std::uint32_t i = 0; i < p.nodes; ++i) {
     CAPTURE(i);
     const std::uint64_t items = stats[i].items_own + stats[i].items_received;
@@ -192,8 +193,12 @@ TEST_CASE("work: a pixel batch carries several blocks a message, every pixel onc
     const std::uint64_t bytes = items * sizeof(PixelsMsg) + stats[i].pixels * kChannels * sizeof(float);
     CHECK(messages * (p.max_payload - sizeof(PixelBatchMsg)) >= bytes);  // none holds more than fits
     CHECK(messages <= (items + kPerMessage - 1) / kPerMessage + stats[i].requests_sent);  // full but at flushes
-    CHECK(messages < items);
+    all_items += items;
+    all_messages += messages;
   }
+  // Batched: fewer messages than items overall (a node may get few or no
+  // items when the others steal its submap, as under a sanitizer).
+  CHECK(all_messages < all_items);
 
   // One node, a buffer for 16 bytes: a block of 1 pixel needs 4 + 20 + 4.
   MachineParams q;
