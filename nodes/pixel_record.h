@@ -5,7 +5,7 @@
 // and later modes send reads the same way.
 //
 // Place in the data flow: node: core::render_pixel -> PixelLayout::pack ->
-// send_pixels (work.h); host: gather_pixels -> PixelLayout::unpack ->
+// PixelBatch (work.h); host: gather_pixels -> PixelLayout::unpack ->
 // core::RenderResult.
 #pragma once
 

@@ -80,7 +80,8 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
   // Fail early, with the sizes, when a copy cannot fit beside the mailbox.
   const core::DatabaseArrays host_arrays = core::DatabaseArrays::of(db, grid);
   const std::size_t copy_bytes = replicated_bytes_per_node(db, grid);
-  const std::size_t fixed = Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload + std::size_t(m.max_payload / sizeof(float)) * sizeof(float) +
+  const std::uint32_t batch_floats = m.max_payload / std::uint32_t(sizeof(float));  // a pixel batch's buffer
+  const std::size_t fixed = Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload + batch_floats * sizeof(float) +
                             sizeof(core::ShadingScratch);
   if (copy_bytes + fixed > m.node_memory)
     throw std::runtime_error(fmt::format(
@@ -98,7 +99,6 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
 
   const std::vector<Rect> submaps = make_submaps(w, h, m.nodes);
   std::vector<std::unique_ptr<NodeState>> states(m.nodes);
-  const std::uint32_t batch_floats = m.max_payload / std::uint32_t(sizeof(float));  // a pixel batch's buffer
 
   // The host loads each node's memory: the load phase, outside virtual time.
   auto setup = [&](NodeContext& ctx) {

@@ -126,19 +126,6 @@ void PixelBatch::flush(NodeContext& ctx) {
   blocks_ = 0;
 }
 
-void send_pixels(NodeContext& ctx, const Rect& rect, std::uint32_t channels, std::span<const float> pixels) {
-  if (pixels.size() != std::size_t(rect.area()) * channels)
-    throw std::logic_error(fmt::format("send_pixels: {} floats for a {}x{}x{} block", pixels.size(), rect.width(),
-                                       rect.height(), channels));
-  const PixelBatchMsg batch{1};
-  const PixelsMsg head{rect, channels};
-  const std::span<const std::byte> parts[3] = {std::as_bytes(std::span<const PixelBatchMsg, 1>(&batch, 1)),
-                                               std::as_bytes(std::span<const PixelsMsg, 1>(&head, 1)),
-                                               std::as_bytes(pixels)};
-  ctx.send(kHost, MessageType::kPixels, std::span<const std::span<const std::byte>>(parts, 3),
-           pixels_departure(ctx));
-}
-
 namespace {
 
 /// The farm's state machine on one node.

@@ -15,8 +15,8 @@
 // machine down.
 //
 // Place in the data flow: mode's node_main -> run_work_farm(ctx, submap,
-// render_item) -> render_item(rect) computes pixels and calls
-// send_pixels(); mode's host_main -> gather_pixels(host ctx, image).
+// render_item, batch) -> render_item(rect) computes pixels into the node's
+// PixelBatch; mode's host_main -> gather_pixels(host ctx, image).
 //
 // Message handling is interrupt-like (node.h): a work request is answered
 // at its arrival time plus the network's service cost.
@@ -149,9 +149,6 @@ WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_
                         const std::function<void(NodeContext&, const Rect&)>& render_item,
                         const OtherMessageHandler& other = {}, PixelBatch* batch = nullptr);
 
-/// Sends `pixels` (rect.area() * channels floats, row-major) to the host in
-/// a message of its own.
-void send_pixels(NodeContext& ctx, const Rect& rect, std::uint32_t channels, std::span<const float> pixels);
 
 /// The host's side: receives pixel blocks and calls store(source, rect,
 /// channels, pixels) for each, until every node reported done; then sends

@@ -31,7 +31,7 @@ PagerStats& PagerStats::operator+=(const PagerStats& o) {
 std::size_t pager_table_bytes(const PageLayout& layout, std::uint32_t cache_pages) {
   // + the list buffer, + alignment of the five arrays (64 B each at most)
   return std::size_t(layout.pages) * 8 + std::size_t(cache_pages) * kPagerFrameOverheadBytes +
-         (std::size_t(kPagerTouchedCapacity) + 1) * 4 + layout.page_size + 5 * 64;
+         std::size_t(kPagerTouchedCapacity) * 4 + layout.page_size + 5 * 64;
 }
 
 namespace {
@@ -57,7 +57,7 @@ Pager::Pager(nodes::NodeContext& ctx, const PageLayout& layout, std::uint32_t ca
       frame_page_(ctx.arena(), cache_pages, "its cache frames' pages"),
       frame_used_(ctx.arena(), cache_pages, "its LRU stamps"),
       events_(ctx.arena(), std::size_t(cache_pages) * 2, "its LRU stamp events"),
-      touched_(ctx.arena(), kTouchedCapacity + 1, "its touched-page list"),
+      touched_(ctx.arena(), kTouchedCapacity, "its touched-page list"),
       lines_(ctx.arena(),
              checked_frames(layout, std::uint64_t(home_frames_) + cache_pages + 1) * (layout.page_size / sizeof(Line)),
              "its home pages, page cache and list buffer") {

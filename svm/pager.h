@@ -190,9 +190,8 @@ class Pager {
   };
 
   /// access()'s other path: the page's first touch in this pixel, or its
-  /// touch after an eviction in this pixel. Handles here only a resident
-  /// page's first touch with room in the touched list; every other case
-  /// goes to touch().
+  /// touch after an eviction in this pixel. Handles here only a home page's
+  /// first touch (no list, no fault); every other case goes to touch().
   [[gnu::noinline]] const std::byte* first_access(std::uint32_t page);
   /// first_access() in every case (a fault, a touch after an eviction, a
   /// full list).
@@ -236,7 +235,7 @@ class Pager {
   nodes::ArenaArray<std::uint32_t> frame_used_;  ///< per cache frame: LRU stamp of its last (first-per-pixel) touch
   nodes::ArenaArray<LruEvent> events_;           ///< ring of stamp events, oldest first (2 per cache frame)
   std::size_t events_head_ = 0, events_n_ = 0;
-  nodes::ArenaArray<std::uint32_t> touched_;     ///< kTouchedCapacity + 1 slots
+  nodes::ArenaArray<std::uint32_t> touched_;     ///< kTouchedCapacity slots
   nodes::ArenaArray<Line> lines_;
   std::byte* frames_ = nullptr;
   const std::byte* cache_base_ = nullptr;  ///< first cache frame

@@ -74,15 +74,19 @@ FarmRun run_farm(std::uint32_t n, int w, int h, bool skewed,
   Machine machine(p);
   out.report = machine.run(
       [&](NodeContext& ctx) {
-        out.stats[ctx.id()] = run_work_farm(ctx, maps[ctx.id()], 3, 3, [&](NodeContext& c, const Rect& r) {
-          // Skewed cost: pixels of the left quarter are 20x more expensive.
-          volatile double sink = 0;
-          for (int y = r.y0; y < r.y1; ++y)
-            for (int x = r.x0; x < r.x1; ++x)
-              for (int k = 0, e = (skewed && x < w / 4) ? 2000 : 100; k < e; ++k) sink = sink + k;
-          std::vector<float> px(std::size_t(r.area()), float(c.id()));
-          send_pixels(c, r, 1, px);
-        });
+        std::vector<float> buffer(p.max_payload / sizeof(float));  // one block a message
+        PixelBatch batch(std::as_writable_bytes(std::span<float>(buffer)));
+        out.stats[ctx.id()] = run_work_farm(
+            ctx, maps[ctx.id()], 3, 3,
+            [&](NodeContext& c, const Rect& r) {
+              // Skewed cost: pixels of the left quarter are 20x more expensive.
+              volatile double sink = 0;
+              for (int y = r.y0; y < r.y1; ++y)
+                for (int x = r.x0; x < r.x1; ++x)
+                  for (int k = 0, e = (skewed && x < w / 4) ? 2000 : 100; k < e; ++k) sink = sink + k;
+              std::fill_n(batch.add(c, r, 1), r.area(), float(c.id()));
+            },
+            {}, &batch);
       },
       [&](NodeContext& host) {
         gather_pixels(host, [&](NodeId src, const Rect& r, std::uint32_t ch, std::span<const float> px) {
