@@ -98,6 +98,12 @@ class Mailbox {
 
   /// Approximate number of queued messages (any thread; for statistics).
   std::uint32_t approximate_size() const;
+  /// Owner thread only: positions producers have claimed and the owner has
+  /// not popped (messages published or still being written), at most
+  /// capacity(): one relaxed load, no scan.
+  std::uint32_t claimed() const {
+    return std::uint32_t(enqueue_pos_.load(std::memory_order_relaxed) - dequeue_pos_);
+  }
 
  private:
   struct alignas(64) SlotHead {

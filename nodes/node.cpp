@@ -163,10 +163,11 @@ void NodeContext::wait_for_mail(double timeout_s) {
   if (id_ == kHost) {
     // The host waits quietly: senders do not wake it per message (a pixel
     // block every few microseconds would take a core from a node each
-    // time). It looks again after a nap that doubles while nothing comes,
-    // from kHostNapMinS up to kHostNapMaxS.
+    // time). It looks again after a nap of kHostNapMinS to kHostNapMaxS
+    // (next_host_nap).
     mailbox_->wait_quietly(machine_->stop, timeout_s > 0 ? std::min(timeout_s, host_nap_s_) : host_nap_s_);
-    host_nap_s_ = mailbox_->has_message() ? kHostNapMinS : std::min(2 * host_nap_s_, kHostNapMaxS);
+    host_nap_s_ = next_host_nap(host_nap_s_, mailbox_->has_message() ? std::max(mailbox_->claimed(), 1u) : 0,
+                                mailbox_->capacity(), host_gathering_);
   } else if (Scheduler& s = *machine_->scheduler;
              s.scheduled_mail() && !s.granted_flag(id_).load(std::memory_order_relaxed)) {
     // Mail is served with a service permit (scheduler.h): give ours back,
@@ -183,6 +184,12 @@ void NodeContext::wait_for_mail(double timeout_s) {
   }
   if (generic) note_wait(WaitReason::kNone);
   end_messaging();
+}
+
+double next_host_nap(double nap_s, std::uint32_t queued, std::uint32_t capacity, bool gathering) {
+  if (queued == 0 || (gathering && queued < capacity / 16)) return std::min(2 * nap_s, kHostNapMaxS);
+  if (!gathering || queued >= capacity / 4) return kHostNapMinS;
+  return nap_s;
 }
 
 void NodeContext::mark_work_done() { work_done_s_ = now(); }

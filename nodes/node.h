@@ -108,6 +108,22 @@ struct NodeCounters {
 
 class MachineState;  // machine.h: what all participants share
 
+/// The host's nap between looks at its mailbox (NodeContext::wait_for_mail),
+/// seconds.
+inline constexpr double kHostNapMinS = 100e-6, kHostNapMaxS = 2e-3;
+
+/// The host's next nap after one that ended with `queued` of its mailbox's
+/// `capacity` slots filled, seconds. An empty mailbox doubles it, up to
+/// kHostNapMaxS. Mail waiting: a host that answers (`gathering` false)
+/// looks again after kHostNapMinS; a gathering host doubles its nap while
+/// fewer than capacity/16 messages wait, keeps it below capacity/4 and
+/// drops to kHostNapMinS from there. A steady stream of pixel messages
+/// then wakes the gathering host a few hundred times a second, tens of
+/// messages a look, instead of every kHostNapMinS: a wake-up on a core
+/// where a node computes costs that node CPU time (its caches), which its
+/// virtual clock counts.
+double next_host_nap(double nap_s, std::uint32_t queued, std::uint32_t capacity, bool gathering);
+
 class NodeContext {
  public:
   /// Built by Machine. `mailbox_capacity` slots of `max_payload` bytes are
@@ -189,6 +205,11 @@ class NodeContext {
   /// node that stops parking leaves its mailbox full, so its senders must
   /// not wait for it.
   void set_park_limit(std::size_t messages) { park_limit_ = messages; }
+  /// Host only: the host only gathers (pixels, done messages) and answers
+  /// nothing a node waits for, so its mail may queue up between its looks
+  /// (next_host_nap). Off by default: the host looks again soon after any
+  /// message (dataflow's host runs termination waves).
+  void set_host_gathering(bool on) { host_gathering_ = on; }
 
   // --- Sending ------------------------------------------------------------
   /// Sends `parts` (concatenated) to `dest` as a message of `type`. Departs
@@ -279,9 +300,8 @@ class NodeContext {
   std::atomic<std::int64_t> wait_a_{-1}, wait_b_{-1};
   std::atomic<double> clock_seen_{0};  ///< clock_ as of the last wait, for the watchdog
   bool want_permit_ = false;           ///< the last try_run/yield_point was refused
-  /// The host's wait between looks at its mailbox (wait_for_mail).
-  static constexpr double kHostNapMinS = 100e-6, kHostNapMaxS = 2e-3;
-  double host_nap_s_ = kHostNapMinS;
+  double host_nap_s_ = kHostNapMinS;  ///< the host's wait between looks at its mailbox (wait_for_mail)
+  bool host_gathering_ = false;       ///< set_host_gathering()
   std::atomic<std::size_t> backlog_size_{0};  ///< messages parked by a blocked send, for the watchdog
   double clock_ = 0;
   double cpu_mark_ = 0;  ///< CPU seconds (kCpu) or metered seconds (kModel) at the last sample

@@ -274,6 +274,7 @@ std::uint64_t gather_pixels(
     NodeContext& host,
     const std::function<void(NodeId, const Rect&, std::uint32_t, std::span<const float>)>& store,
     const OtherMessageHandler& other) {
+  host.set_host_gathering(true);  // nothing here answers a node: let the pixels queue up between looks
   const std::uint32_t n = host.node_count();
   std::uint32_t done = 0;
   std::uint64_t pixels = 0;

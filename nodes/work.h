@@ -152,7 +152,9 @@ WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_
 
 /// The host's side: receives pixel blocks and calls store(source, rect,
 /// channels, pixels) for each, until every node reported done; then sends
-/// shutdown to every node. Returns the number of pixels received.
+/// shutdown to every node. Returns the number of pixels received. The host
+/// only gathers meanwhile (NodeContext::set_host_gathering: its mail queues
+/// up between looks), so `other` must answer nothing a node waits for.
 std::uint64_t gather_pixels(
     NodeContext& host,
     const std::function<void(NodeId, const Rect&, std::uint32_t, std::span<const float>)>& store,

@@ -280,3 +280,25 @@ TEST_CASE("machine: the stall watchdog stops a run that sends nothing and says w
   const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   CHECK(waited < 30);  // the stall watchdog, not the 60 s timeout, ended it
 }
+
+TEST_CASE("machine: the host's nap grows while its mail stays short, and a gathering host lets pixels queue") {
+  const std::uint32_t cap = 4096;
+  // Nothing came: the nap doubles up to the cap, whatever the host does.
+  CHECK(next_host_nap(kHostNapMinS, 0, cap, false) == doctest::Approx(2 * kHostNapMinS));
+  CHECK(next_host_nap(kHostNapMaxS, 0, cap, true) == kHostNapMaxS);
+  double nap = kHostNapMinS;
+  for (int i = 0; i < 20; ++i) nap = next_host_nap(nap, 0, cap, false);
+  CHECK(nap == kHostNapMaxS);
+  // A host that answers looks again soon after any message.
+  CHECK(next_host_nap(kHostNapMaxS, 1, cap, false) == kHostNapMinS);
+  // A gathering host: a short queue (under 1/16) still doubles its nap...
+  nap = kHostNapMinS;
+  for (int i = 0; i < 20; ++i) nap = next_host_nap(nap, cap / 16 - 1, cap, true);
+  CHECK(nap == kHostNapMaxS);
+  // ...between 1/16 and 1/4 it holds...
+  CHECK(next_host_nap(4 * kHostNapMinS, cap / 16, cap, true) == doctest::Approx(4 * kHostNapMinS));
+  CHECK(next_host_nap(4 * kHostNapMinS, cap / 4 - 1, cap, true) == doctest::Approx(4 * kHostNapMinS));
+  // ...and from a quarter full it looks again soon, before senders find it full.
+  CHECK(next_host_nap(kHostNapMaxS, cap / 4, cap, true) == kHostNapMinS);
+  CHECK(next_host_nap(kHostNapMaxS, cap, cap, true) == kHostNapMinS);
+}

@@ -39,6 +39,7 @@ TEST_CASE("mailbox: FIFO order, and a full mailbox refuses without changing anyt
   for (std::uint32_t i = 0; i < 4; ++i) CHECK(push_item(box, Item{0, i, check_of(0, i)}));
   CHECK_FALSE(push_item(box, Item{0, 99, 0}));  // full
   CHECK(box.approximate_size() == 4);
+  CHECK(box.claimed() == 4);  // the refused push claimed nothing
   std::vector<std::byte> buf(64);
   MessageHeader h;
   for (std::uint32_t i = 0; i < 4; ++i) {
@@ -47,6 +48,7 @@ TEST_CASE("mailbox: FIFO order, and a full mailbox refuses without changing anyt
     std::memcpy(&it, buf.data(), sizeof it);
     CHECK(it.seq == i);
     CHECK(h.payload_bytes == sizeof(Item));
+    CHECK(box.claimed() == (i == 0 ? 3u : 4u - i));  // one pushed back in after the first pop
     if (i == 0) CHECK(push_item(box, Item{0, 4, check_of(0, 4)}));  // room again after one pop
   }
   REQUIRE(box.try_pop(h, buf.data()));
@@ -54,6 +56,7 @@ TEST_CASE("mailbox: FIFO order, and a full mailbox refuses without changing anyt
   std::memcpy(&it, buf.data(), sizeof it);
   CHECK(it.seq == 4);  // the one refused before never got in
   CHECK_FALSE(box.try_pop(h, buf.data()));
+  CHECK(box.claimed() == 0);
 }
 
 TEST_CASE("mailbox: a payload larger than the slot is refused with an error, capacity rounds to a power of two") {
