@@ -166,8 +166,7 @@ void NodeContext::wait_for_mail(double timeout_s) {
     // time). It looks again after a nap of kHostNapMinS to kHostNapMaxS
     // (next_host_nap).
     mailbox_->wait_quietly(machine_->stop, timeout_s > 0 ? std::min(timeout_s, host_nap_s_) : host_nap_s_);
-    host_nap_s_ = next_host_nap(host_nap_s_, mailbox_->has_message() ? std::max(mailbox_->claimed(), 1u) : 0,
-                                mailbox_->capacity(), host_gathering_);
+    host_nap_s_ = next_host_nap(host_nap_s_, mailbox_->claimed(), mailbox_->capacity(), host_gathering_);
   } else if (Scheduler& s = *machine_->scheduler;
              s.scheduled_mail() && !s.granted_flag(id_).load(std::memory_order_relaxed)) {
     // Mail is served with a service permit (scheduler.h): give ours back,

@@ -35,8 +35,7 @@ struct NodeState {
   ArenaArray<std::uint32_t> cell_primitives;
   ArenaArray<std::uint8_t> empty_distance;
   ArenaArray<core::Light> lights;
-  ArenaArray<float> pixels;  ///< outgoing pixel blocks (one message's payload)
-  PixelBatch batch;          ///< over `pixels`
+  PixelBatch batch;  ///< outgoing pixel blocks (one message's payload)
   core::ShadingScratch* scratch = nullptr;
   Arena* arena = nullptr;
   core::RenderStats stats;
@@ -80,8 +79,7 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
   // Fail early, with the sizes, when a copy cannot fit beside the mailbox.
   const core::DatabaseArrays host_arrays = core::DatabaseArrays::of(db, grid);
   const std::size_t copy_bytes = replicated_bytes_per_node(db, grid);
-  const std::uint32_t batch_floats = m.max_payload / std::uint32_t(sizeof(float));  // a pixel batch's buffer
-  const std::size_t fixed = Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload + batch_floats * sizeof(float) +
+  const std::size_t fixed = Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload + PixelBatch::bytes(m.max_payload) +
                             sizeof(core::ShadingScratch);
   if (copy_bytes + fixed > m.node_memory)
     throw std::runtime_error(fmt::format(
@@ -112,8 +110,7 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
     s->cell_primitives = copy_to_arena(a, host_arrays.cell_primitives, "the database copy (cell lists)");
     s->empty_distance = copy_to_arena(a, host_arrays.empty_distance, "the database copy (empty-space distances)");
     s->lights = copy_to_arena(a, std::span<const core::Light>(db.lights), "the lights");
-    s->pixels = ArenaArray<float>(a, batch_floats, "its pixel buffer");
-    s->batch = PixelBatch(std::as_writable_bytes(s->pixels.span()));
+    s->batch = PixelBatch(a, m.max_payload);
     s->scratch = a.create<core::ShadingScratch>("its tracing scratch");
     s->cost_model = m.cost_model;
     states[ctx.id()] = std::move(s);

@@ -100,26 +100,26 @@ double pixels_departure(NodeContext& ctx) {
 
 float* PixelBatch::add(NodeContext& ctx, const Rect& rect, std::uint32_t channels) {
   const std::size_t need = sizeof(PixelsMsg) + std::size_t(rect.area()) * channels * sizeof(float);
-  if (used_ + need > buffer_.size()) {
+  if (used_ + need > buffer().size()) {
     flush(ctx);
-    if (used_ + need > buffer_.size())
+    if (used_ + need > buffer().size())
       throw std::length_error(fmt::format("{}: a {}x{}x{} pixel block needs {} B, the pixel buffer holds {} B",
                                           node_name(ctx.id()), rect.width(), rect.height(), channels,
-                                          sizeof(PixelBatchMsg) + need, buffer_.size()));
+                                          sizeof(PixelBatchMsg) + need, buffer().size()));
   }
   const PixelsMsg head{rect, channels};
-  std::memcpy(buffer_.data() + used_, &head, sizeof head);
-  float* pixels = reinterpret_cast<float*>(buffer_.data() + used_ + sizeof head);
+  std::byte* at = buffer().data() + used_;
+  std::memcpy(at, &head, sizeof head);
   used_ += need;
   ++blocks_;
-  return pixels;
+  return reinterpret_cast<float*>(at + sizeof head);
 }
 
 void PixelBatch::flush(NodeContext& ctx) {
   if (blocks_ == 0) return;
   const PixelBatchMsg head{blocks_};
-  std::memcpy(buffer_.data(), &head, sizeof head);
-  const std::span<const std::byte> parts[1] = {buffer_.first(used_)};
+  std::memcpy(buffer().data(), &head, sizeof head);
+  const std::span<const std::byte> parts[1] = {buffer().first(used_)};
   ctx.send(kHost, MessageType::kPixels, std::span<const std::span<const std::byte>>(parts, 1),
            pixels_departure(ctx));
   used_ = sizeof(PixelBatchMsg);

@@ -108,20 +108,23 @@ struct WorkStats {
 using OtherMessageHandler = std::function<bool(NodeContext&, const Message&)>;
 
 /// A node's finished pixel blocks on their way to the host, several in one
-/// kPixels message. A message per work item costs the node more than
-/// rendering a few of its pixels: the host reads each message on another
-/// core, so every message slot the node writes comes back from the host's
-/// cache. The host needs the pixels only by the end of the run. Blocks
-/// are sent in the order they were added; run_work_farm sends the batch
-/// before the node asks for work and before it reports done.
+/// kPixels message: fewer messages, so fewer looks by the host (and with
+/// them fewer of its wake-ups on a core where a node computes; the host
+/// needs the pixels only by the end of the run). Blocks are sent in the
+/// order they were added; run_work_farm sends the batch before the node
+/// asks for work and before it reports done.
 ///
 /// Thread safety: owner node thread only.
 class PixelBatch {
  public:
   PixelBatch() = default;
-  /// `buffer`: the node's memory for one message's payload (in its arena;
-  /// at most the machine's max_payload bytes, 4-byte aligned).
-  explicit PixelBatch(std::span<std::byte> buffer) : buffer_(buffer) {}
+  /// A batch whose buffer, one message's payload (`max_payload` bytes,
+  /// rounded down to whole floats), lives in `arena`. Throws ArenaExhausted.
+  PixelBatch(Arena& arena, std::uint32_t max_payload)
+      : buffer_(arena, max_payload / sizeof(float), "its pixel buffer") {}
+  /// Arena bytes of a batch's buffer for `max_payload` (for a mode's sum of
+  /// a node's fixed memory).
+  static std::size_t bytes(std::uint32_t max_payload) { return max_payload / sizeof(float) * sizeof(float); }
   /// Where to write the rect.area() * channels floats (row-major) of block
   /// `rect`, valid until the next call; sends the batch first when the
   /// block does not fit beside it. Throws std::length_error when one block
@@ -133,7 +136,9 @@ class PixelBatch {
   std::uint32_t blocks() const { return blocks_; }
 
  private:
-  std::span<std::byte> buffer_;
+  std::span<std::byte> buffer() const { return std::as_writable_bytes(buffer_.span()); }
+
+  ArenaArray<float> buffer_;
   std::size_t used_ = sizeof(PixelBatchMsg);
   std::uint32_t blocks_ = 0;
 };

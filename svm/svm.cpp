@@ -38,8 +38,7 @@ struct NodeState {
   Rect submap;
   nodes::ArenaArray<core::Material> materials;
   nodes::ArenaArray<core::Light> lights;
-  nodes::ArenaArray<float> pixels;  ///< outgoing pixel blocks (one message's payload)
-  nodes::PixelBatch batch;          ///< over `pixels`
+  nodes::PixelBatch batch;  ///< outgoing pixel blocks (one message's payload)
   Pager* pager = nullptr;
   core::ShadingScratch* scratch = nullptr;
   nodes::Arena* arena = nullptr;
@@ -158,10 +157,9 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
 
   SvmResult out;
   out.layout = layout;
-  const std::uint32_t batch_floats = m.max_payload / std::uint32_t(sizeof(float));  // a pixel batch's buffer
   out.node_fixed_bytes = nodes::Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload +
                          pager_table_bytes(layout, 0) + sizeof(Pager) + in.materials.size_bytes() +
-                         in.lights.size_bytes() + batch_floats * sizeof(float) + sizeof(core::ShadingScratch) +
+                         in.lights.size_bytes() + nodes::PixelBatch::bytes(m.max_payload) + sizeof(core::ShadingScratch) +
                          message_reserve(m.max_payload);
   // Fail before starting, with the sizes, when a node cannot hold its part.
   std::vector<std::uint32_t> cache(m.nodes);
@@ -188,8 +186,7 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
     s->arena = &a;
     s->materials = nodes::copy_to_arena(a, in.materials, "the materials");
     s->lights = nodes::copy_to_arena(a, in.lights, "the lights");
-    s->pixels = nodes::ArenaArray<float>(a, batch_floats, "its pixel buffer");
-    s->batch = nodes::PixelBatch(std::as_writable_bytes(s->pixels.span()));
+    s->batch = nodes::PixelBatch(a, m.max_payload);
     s->scratch = a.create<core::ShadingScratch>("its tracing scratch");
     s->cost_model = m.cost_model;
     s->pager = a.create<Pager>("its pager", ctx, layout, cache[ctx.id()]);

@@ -74,8 +74,7 @@ FarmRun run_farm(std::uint32_t n, int w, int h, bool skewed,
   Machine machine(p);
   out.report = machine.run(
       [&](NodeContext& ctx) {
-        std::vector<float> buffer(p.max_payload / sizeof(float));  // one block a message
-        PixelBatch batch(std::as_writable_bytes(std::span<float>(buffer)));
+        PixelBatch batch(ctx.arena(), p.max_payload);  // one block a message
         out.stats[ctx.id()] = run_work_farm(
             ctx, maps[ctx.id()], 3, 3,
             [&](NodeContext& c, const Rect& r) {
@@ -159,8 +158,7 @@ TEST_CASE("work: a pixel batch carries several blocks a message, every pixel onc
   Machine machine(p);
   const RunReport report = machine.run(
       [&](NodeContext& ctx) {
-        std::vector<float> buffer(p.max_payload / sizeof(float));
-        PixelBatch batch(std::as_writable_bytes(std::span<float>(buffer)));
+        PixelBatch batch(ctx.arena(), p.max_payload);
         stats[ctx.id()] = run_work_farm(
             ctx, maps[ctx.id()], 3, 3,
             [&](NodeContext& c, const Rect& r) {
@@ -212,8 +210,7 @@ TEST_CASE("work: a pixel batch carries several blocks a message, every pixel onc
   Machine small(q);
   small.run(
       [&](NodeContext& ctx) {
-        std::vector<float> buffer(4);
-        PixelBatch batch(std::as_writable_bytes(std::span<float>(buffer)));
+        PixelBatch batch(ctx.arena(), 4 * sizeof(float));
         try {
           batch.add(ctx, Rect{0, 0, 1, 1}, 1);
         } catch (const std::length_error&) {
