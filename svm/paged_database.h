@@ -85,6 +85,8 @@ struct PageLayout {
   std::uint32_t packed_cells = 0, blocks = 0;
   std::uint64_t object_bytes = 0;  ///< bytes of all objects, without the unused tails of pages
 
+  /// The shared-virtual-memory address of `page`'s first byte (Pager::at).
+  std::uint64_t address(std::uint32_t page) const { return std::uint64_t(page) << page_shift; }
   /// Bytes of the shared virtual memory (pages x page size).
   std::uint64_t bytes() const { return std::uint64_t(pages) * page_size; }
   /// The home node of a page among `nodes`, and the page's index there.

@@ -6,6 +6,12 @@
 // page that is not resident is a page fault. Materials and the grid's O(1)
 // description are replicated on the node.
 //
+// An object is read at its shared-virtual-memory address (Pager::at): its
+// segment's first address plus its place in the segment (a cell's 8-byte
+// directory entry, a primitive's 64-byte record, the byte address of a
+// list or a packed cell's first block that the directory entry holds), so
+// that the pager finds page and byte with one shift and one add.
+//
 // Because the bytes are the host's records, copied page by page, and the
 // traversal and shading code are the same, images are bit-identical to
 // sequential mode.
@@ -37,7 +43,14 @@ class PagedView {
  public:
   /// `materials` live in the node's arena (replicated metadata).
   PagedView(Pager& pager, const core::GridInfo& grid, std::span<const core::Material> materials)
-      : pager_(&pager), layout_(pager.layout()), grid_(grid), materials_(materials) {}
+      : pager_(&pager),
+        layout_(pager.layout()),
+        directory_(layout_.address(layout_.directory_first)),
+        lists_(layout_.address(layout_.list_first)),
+        primitives_(layout_.address(layout_.primitive_first)),
+        blocks_(layout_.address(layout_.block_first)),
+        grid_(grid),
+        materials_(materials) {}
 
   const core::GridInfo& grid_info() const { return grid_; }
 
@@ -60,26 +73,26 @@ class PagedView {
   /// packed(const core::CellBlockSpan&), a page's piece at a time.
   template <class F, class P>
   std::uint32_t visit_cell(std::uint32_t cell, F&& f, P&& packed) const {
-    const std::byte* entry = pager_->access(layout_.directory_page(cell)) + layout_.directory_offset(cell);
+    const std::byte* entry = pager_->at(directory_ + std::uint64_t(cell) * sizeof(DirectoryEntry));
     std::uint32_t count, list;  // a DirectoryEntry's fields, each read as the branches need it
     std::memcpy(&count, entry + offsetof(DirectoryEntry, count), sizeof count);
     std::memcpy(&list, entry + offsetof(DirectoryEntry, list), sizeof list);
     if (count == 0) return list;  // an empty cell's entry holds its empty-space distance
+    const std::uint32_t in_page = layout_.page_size - (list & (layout_.page_size - 1));  // bytes left in the page
     if (count & kPackedCell) {
       const std::uint32_t triangles = count & ~kPackedCell;
       const std::uint32_t blocks = (triangles + core::kBlockLanes - 1) / core::kBlockLanes;
-      const std::uint32_t offset = layout_.block_address_offset(list);
-      if (offset + blocks * std::uint32_t(sizeof(core::TriangleBlock)) <= layout_.page_size) [[likely]]
-        packed(core::CellBlockSpan{block_frame(list), blocks, triangles});
+      const std::uint64_t address = blocks_ + list;
+      if (blocks * std::uint32_t(sizeof(core::TriangleBlock)) <= in_page) [[likely]]
+        packed(core::CellBlockSpan{reinterpret_cast<const core::TriangleBlock*>(pager_->at(address)), blocks, triangles});
       else
-        visit_chained_blocks(list, triangles, packed);
+        visit_chained_blocks(address, blocks, triangles, packed);
       return 0;
     }
-    std::uint32_t address = list, left = count;
-    while (left > 0) {
-      const std::uint32_t page = layout_.list_page(address), offset = layout_.list_offset(address);
-      const std::uint32_t n = std::min(left, (layout_.page_size - offset) / std::uint32_t(sizeof(std::uint32_t)));
-      const std::uint32_t* ids = reinterpret_cast<const std::uint32_t*>(pager_->access(page) + offset);
+    std::uint64_t address = lists_ + list;
+    std::uint32_t left = count, n = std::min(left, in_page / std::uint32_t(sizeof(std::uint32_t)));
+    for (;;) {
+      const std::uint32_t* ids = reinterpret_cast<const std::uint32_t*>(pager_->at(address));
       if (pager_->in_cache(ids)) [[unlikely]] {
         // f() may evict this cache page (a one-page cache does): visit a copy.
         std::uint32_t* copy = pager_->list_buffer();
@@ -88,13 +101,13 @@ class PagedView {
       }
       for (std::uint32_t i = 0; i < n; ++i) f(ids[i]);
       left -= n;
-      address += n * std::uint32_t(sizeof(std::uint32_t));
+      if (left == 0) return 0;
+      address += n * sizeof(std::uint32_t);  // the next page's first id
+      n = std::min(left, layout_.page_size / std::uint32_t(sizeof(std::uint32_t)));
     }
-    return 0;
   }
   const core::Primitive& primitive(std::uint32_t id) const {
-    return *reinterpret_cast<const core::Primitive*>(pager_->access(layout_.primitive_page(id)) +
-                                                     layout_.primitive_offset(id));
+    return *reinterpret_cast<const core::Primitive*>(pager_->at(primitives_ + std::uint64_t(id) * sizeof(core::Primitive)));
   }
   const core::Material& material(std::uint32_t id) const { return materials_[id]; }
   const core::TriangleNormals& vertex_normals(std::uint32_t id) const {
@@ -103,22 +116,16 @@ class PagedView {
   }
 
  private:
-  /// The block at byte `address` of the blocks segment.
-  const core::TriangleBlock* block_frame(std::uint32_t address) const {
-    return reinterpret_cast<const core::TriangleBlock*>(pager_->access(layout_.block_address_page(address)) +
-                                                        layout_.block_address_offset(address));
-  }
   /// A packed cell whose blocks continue page after page: a piece per page.
   template <class P>
-  void visit_chained_blocks(std::uint32_t address, std::uint32_t triangles, P& packed) const {
-    std::uint32_t left = (triangles + core::kBlockLanes - 1) / core::kBlockLanes;
-    while (left > 0) {
+  void visit_chained_blocks(std::uint64_t address, std::uint32_t blocks, std::uint32_t triangles, P& packed) const {
+    while (blocks > 0) {
       const std::uint32_t room =
-          (layout_.page_size - layout_.block_address_offset(address)) / std::uint32_t(sizeof(core::TriangleBlock));
-      const std::uint32_t n = std::min(left, room);
+          (layout_.page_size - std::uint32_t(address & (layout_.page_size - 1))) / std::uint32_t(sizeof(core::TriangleBlock));
+      const std::uint32_t n = std::min(blocks, room);
       const std::uint32_t in_piece = std::min(triangles, n * core::kBlockLanes);
-      packed(core::CellBlockSpan{block_frame(address), n, in_piece});
-      left -= n;
+      packed(core::CellBlockSpan{reinterpret_cast<const core::TriangleBlock*>(pager_->at(address)), n, in_piece});
+      blocks -= n;
       triangles -= in_piece;
       address = (address | (layout_.page_size - 1)) + 1;  // the next page's first block
     }
@@ -126,6 +133,8 @@ class PagedView {
 
   Pager* pager_;
   PageLayout layout_;  // a copy: its fields stay in the view, one load away
+  /// The segments' first addresses in the shared virtual memory.
+  std::uint64_t directory_, lists_, primitives_, blocks_;
   core::GridInfo grid_;
   std::span<const core::Material> materials_;
 };

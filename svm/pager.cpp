@@ -48,12 +48,12 @@ std::uint64_t checked_frames(const PageLayout& layout, std::uint64_t frames) {
 }  // namespace
 
 Pager::Pager(nodes::NodeContext& ctx, const PageLayout& layout, std::uint32_t cache_pages)
-    : ctx_(ctx),
+    : table_(ctx.arena(), layout.pages, "its page table"),
       layout_(layout),
+      ctx_(ctx),
       nodes_(ctx.node_count()),
       home_frames_(layout.home_pages(ctx.id(), ctx.node_count())),
       cache_frames_(cache_pages),
-      table_(ctx.arena(), layout.pages, "its page table"),
       frame_page_(ctx.arena(), cache_pages, "its cache frames' pages"),
       frame_used_(ctx.arena(), cache_pages, "its LRU stamps"),
       events_(ctx.arena(), std::size_t(cache_pages) * 2, "its LRU stamp events"),
@@ -68,8 +68,12 @@ Pager::Pager(nodes::NodeContext& ctx, const PageLayout& layout, std::uint32_t ca
   frames_ = reinterpret_cast<std::byte*>(lines_.data());
   cache_base_ = frames_ + (std::size_t(home_frames_) << layout.page_shift);
   list_buffer_ = reinterpret_cast<std::uint32_t*>(frames_ + (std::size_t(home_frames_ + cache_pages) << layout.page_shift));
+  // The frames end at or below 2^32 bytes (checked_frames), the list
+  // buffer last: its offset is no page's.
+  not_resident_ = (home_frames_ + cache_pages) << layout.page_shift;
+  for (std::uint32_t p = 0; p < layout.pages; ++p) set_frame_offset(p, not_resident_);
   for (std::uint32_t s = 0; s < home_frames_; ++s)
-    table_[std::size_t(s) * nodes_ + ctx.id()].word = s << layout.page_shift;
+    set_frame_offset(s * nodes_ + ctx.id(), s << layout.page_shift);
   home_end_ = home_frames_ << layout.page_shift;
   stats_.home_pages = home_frames_;
   stats_.cache_pages = cache_frames_;
@@ -83,8 +87,8 @@ std::byte* Pager::home_frame(std::uint32_t page) {
 
 void Pager::flush_recency() {
   for (std::uint32_t i = 0; i < touched_n_; ++i) {
-    const PageEntry& e = table_[touched_[i]];  // non-home: a cache frame or not resident
-    if (e.word != kNotResident) stamp(frame_of(e) - home_frames_);
+    const std::uint32_t offset = frame_offset(touched_[i]);  // non-home: a cache frame or not resident
+    if (offset != not_resident_) stamp((offset >> layout_.page_shift) - home_frames_);
   }
   stats_.cache_accesses += touched_n_;
   touched_n_ = 0;
@@ -118,40 +122,28 @@ std::uint32_t Pager::lru_victim() {
   }
 }
 
-const std::byte* Pager::first_access(std::uint32_t page) {
-  PageEntry* const entry = &table_[page];
-  const std::uint32_t word = entry->word;
-  // The common case, with no call (so no registers to save): a home page's
-  // first touch in this pixel (kNotResident lies above every home frame).
-  // A resident page's stamp is never the pixel's with kEvictedInPixel (an
-  // eviction makes it not resident), so this is its first touch.
-  if (word < home_end_) [[likely]] {
-    ++pixel_pages_;
-    entry->stamp = pixel_stamp_;
-    return frames_ + word;
-  }
-  return touch(page);
-}
-
-const std::byte* Pager::touch(std::uint32_t page) {
+std::uint32_t Pager::touch(std::uint32_t page) {
   // Locals and one entry pointer: the list's stores could alias the entry.
   PageEntry* const entry = &table_[page];
+  const std::uint32_t offset = frame_offset(page);
   // Touched before in this pixel, then evicted: not a new distinct page, and
   // not in the touched list a second time.
   const bool first = (entry->stamp & ~kEvictedInPixel) != pixel_stamp_;
   if (first) {
     ++pixel_pages_;
-    if (entry->word >= home_end_) {  // a cache frame, or not resident
+    if (offset >= home_end_) {  // a cache frame, or not resident
       touched_[touched_n_++] = page;
       if (touched_n_ == kTouchedCapacity) [[unlikely]] flush_recency();
     }
   }
-  if (entry->word == kNotResident) [[unlikely]] {
+  if (offset == not_resident_) [[unlikely]] {
     if (!first) ++stats_.cache_accesses;  // counted here, as it is not in the touched list
-    fault(page);  // may evict other pages
+    const std::uint32_t fetched = fault(page);  // may evict other pages
+    entry->stamp = pixel_stamp_;
+    return fetched;
   }
   entry->stamp = pixel_stamp_;  // on the fast path until the pixel ends or an eviction
-  return frames_ + entry->word;
+  return offset;
 }
 
 void Pager::next_pixel_stamp() {
@@ -207,7 +199,7 @@ bool Pager::serve(const nodes::Message& m) {
   return true;
 }
 
-const std::byte* Pager::fault(std::uint32_t page) {
+std::uint32_t Pager::fault(std::uint32_t page) {
   if (page >= layout_.pages)
     throw std::logic_error(fmt::format("{}: access to page {} of {}", nodes::node_name(ctx_.id()), page,
                                        layout_.pages));
@@ -223,9 +215,10 @@ const std::byte* Pager::fault(std::uint32_t page) {
     victim = home_frames_ + cache_used_++;
   } else {
     victim = lru_victim();
-    // Off access()'s fast path; its stamp remembers a touch in this pixel.
-    PageEntry& evicted = table_[frame_page_[victim - home_frames_]];
-    evicted.word = kNotResident;
+    // Off at()'s fast path; its stamp remembers a touch in this pixel.
+    const std::uint32_t evicted_page = frame_page_[victim - home_frames_];
+    PageEntry& evicted = table_[evicted_page];
+    set_frame_offset(evicted_page, not_resident_);
     if (evicted.stamp == pixel_stamp_) evicted.stamp |= kEvictedInPixel;
     frame_page_[victim - home_frames_] = kNone;
     ++stats_.evictions;
@@ -279,14 +272,14 @@ const std::byte* Pager::fault(std::uint32_t page) {
   ctx_.advance_to(arrival, nodes::WaitKind::kCommunication);
   frame_page_[victim - home_frames_] = page;
   stamp(victim - home_frames_);
-  table_[page].word = victim << layout_.page_shift;
+  set_frame_offset(page, victim << layout_.page_shift);
   // Compute again only with a run permit, answering requests meanwhile.
   while (released && !ctx_.try_resume()) {
     ctx_.wait_for_mail(0);
     while (ctx_.poll(m)) serve_or_defer(m);
   }
   ctx_.resume_deferred();
-  return frame;
+  return victim << layout_.page_shift;
 }
 
 }  // namespace raynode::svm

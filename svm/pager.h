@@ -5,7 +5,9 @@
 // Place in the data flow: svm's setup builds one Pager per node in the
 // node's arena and copies the node's home pages into it; PagedView
 // (paged_view.h) turns every object access of the one tracer into
-// access(page); a page that is neither home nor cached is a page fault:
+// at(address), an address in the shared virtual memory (page number
+// above the page's bits, the byte in the page below them); a page that is
+// neither home nor cached is a page fault:
 // the pager sends a page request to the page's home node and waits for the
 // reply, serving other nodes' page requests meanwhile and setting every
 // other message aside for the work loop (no deadlock: page service never
@@ -31,7 +33,9 @@
 // whole database), the home pages, the cache frames, 24 bytes per cache
 // frame (its page, its LRU stamp, two queued stamp events) and the list of
 // the current pixel's first touches of non-home pages (1 KiB). A node's frames (home pages,
-// cache, list buffer) lie within 4 GiB: the page table holds 32-bit offsets.
+// cache, list buffer) lie within 4 GiB: the page table holds 32-bit offsets
+// (each entry's word is its frame's offset minus the page's address,
+// modulo 2^32, so that word + address is the byte's offset).
 //
 // Thread safety: owner node thread only (setup runs on the host's thread
 // before the node starts).
@@ -109,30 +113,45 @@ class Pager {
   std::byte* home_frame(std::uint32_t page);
 
   /// The bytes of `page` (page_size of them, 64-byte aligned), valid until
-  /// the page is evicted (home pages never are). Faults when it is not
-  /// resident. Every call counts as an access and marks the page touched in
-  /// the current pixel (distinct pages per pixel).
+  /// the page is evicted (home pages never are): at(page's first byte).
+  const std::byte* access(std::uint32_t page) { return at(std::uint64_t(page) << layout_.page_shift); }
+
+  /// The byte at shared-virtual-memory address `address` (page
+  /// address >> page_shift, byte address & (page_size - 1) in it), valid
+  /// until its page is evicted (home pages never are). Faults when the page
+  /// is not resident. Every call counts as an access and marks the page
+  /// touched in the current pixel (distinct pages per pixel).
   ///
-  /// The hot path is one page-table read and one compare, the same for one
-  /// node as for 64: an entry whose stamp is the current pixel's was
-  /// touched in this pixel and is resident, and its word is its frame's
-  /// byte offset, so the frame is returned at once. Any other access is a
-  /// page's first touch in the pixel (or its touch after an eviction in
-  /// this pixel): first_access() counts the distinct page, notes a
-  /// non-home page's first touch in a short list, faults when the page is
-  /// not resident, and gives the entry the pixel's stamp. The list updates
-  /// the pages' LRU recency at the pixel's end or at the next fault
-  /// (flush_recency), before any victim is chosen, so evictions are those
-  /// of an LRU updated at each first touch. A new pixel needs no pass over
-  /// the touched pages: it only advances the stamp. Throws what the
-  /// messaging throws (nodes::RunAborted) and std::logic_error on a
-  /// protocol error.
-  const std::byte* access(std::uint32_t page) {
+  /// The hot path, the same for one node as for 64, is one page-table
+  /// entry: its stamp equal to the pixel's means resident and touched in
+  /// this pixel, and its word plus the address, modulo 2^32, is the byte's
+  /// offset from the frames (the word is the frame's offset minus the
+  /// page's address), so the offset in the page needs no masking. A home
+  /// page's first touch in a pixel (the offset lies below the cache frames)
+  /// counts the distinct page and stamps the entry inline. Any other first
+  /// touch (a cache page, a fault, a touch after an eviction in this
+  /// pixel) goes to touch(): it notes a non-home page's first touch in a
+  /// short list, faults when the page is not resident, and stamps the
+  /// entry. The list updates the pages' LRU recency at the pixel's end or
+  /// at the next fault (flush_recency), before any victim is chosen, so
+  /// evictions are those of an LRU updated at each first touch. A new pixel
+  /// needs no pass over the touched pages: it only advances the stamp.
+  /// Throws what the messaging throws (nodes::RunAborted) and
+  /// std::logic_error on a protocol error.
+  const std::byte* at(std::uint64_t address) {
     ++stats_.accesses;
-    const PageEntry& e = table_[page];
-    if (e.stamp == pixel_stamp_) [[likely]]
-      return frames_ + e.word;
-    return first_access(page);
+    const std::uint32_t page = std::uint32_t(address >> layout_.page_shift);
+    PageEntry& e = table_[page];
+    std::uint32_t offset = e.word + std::uint32_t(address);
+    if (e.stamp != pixel_stamp_) [[unlikely]] {
+      if (offset < home_end_) {  // a home page's first touch in this pixel
+        ++pixel_pages_;
+        e.stamp = pixel_stamp_;
+      } else {
+        offset = touch(page) + (std::uint32_t(address) & (layout_.page_size - 1));
+      }
+    }
+    return frames_ + offset;
   }
   /// True if `p` (from access()) lies in a cache frame, which a later
   /// access may evict; home pages never move.
@@ -158,11 +177,9 @@ class Pager {
   const PageLayout& layout() const { return layout_; }
   const PagerStats& stats() const { return stats_; }
   /// Is `page` resident (home or cached)? For tests.
-  bool resident(std::uint32_t page) const { return table_[page].word != kNotResident; }
+  bool resident(std::uint32_t page) const { return frame_offset(page) != not_resident_; }
 
  private:
-  /// PageEntry::word of a page that is not resident.
-  static constexpr std::uint32_t kNotResident = 0xffffffffu;
   /// PageEntry::stamp's top bit: the page was touched in the pixel whose
   /// stamp the other bits hold, then evicted (counted, off the fast path).
   static constexpr std::uint32_t kEvictedInPixel = 0x80000000u;
@@ -170,11 +187,12 @@ class Pager {
   /// First touches of non-home pages noted before the LRU is updated.
   static constexpr std::uint32_t kTouchedCapacity = kPagerTouchedCapacity;
   struct PageEntry {
-    /// Resident: the byte offset of its frame from frames_ (a multiple of
-    /// 64); else kNotResident.
-    std::uint32_t word = kNotResident;
+    /// The page's frame offset from frames_ (a multiple of 64) minus the
+    /// page's address (page << page_shift), modulo 2^32; a page that is not
+    /// resident has the frame offset not_resident_.
+    std::uint32_t word = 0;
     /// Stamp of the pixel of its last first touch (0: never touched; the
-    /// current pixel's: resident and touched in this pixel, access()'s fast
+    /// current pixel's: resident and touched in this pixel, at()'s fast
     /// path), | kEvictedInPixel when evicted since.
     std::uint32_t stamp = 0;
   };
@@ -189,21 +207,22 @@ class Pager {
     std::uint32_t stamp;
   };
 
-  /// access()'s other path: the page's first touch in this pixel, or its
-  /// touch after an eviction in this pixel. Handles here only a home page's
-  /// first touch (no list, no fault); every other case goes to touch().
-  [[gnu::noinline]] const std::byte* first_access(std::uint32_t page);
-  /// first_access() in every case (a fault, a touch after an eviction, a
-  /// full list).
-  [[gnu::noinline]] const std::byte* touch(std::uint32_t page);
+  /// at()'s other path: the first touch in this pixel of a page that is
+  /// not home (or its touch after an eviction in this pixel, or a fault);
+  /// returns the page's frame offset.
+  [[gnu::noinline]] std::uint32_t touch(std::uint32_t page);
   /// Gives every page in the touched list a new LRU stamp, in first-touch
   /// order, and counts them as cache accesses.
   [[gnu::noinline]] void flush_recency();
   /// Advances the pixel stamp (every entry leaves the fast path); on
   /// wrapping, forgets every entry's stamp.
   void next_pixel_stamp();
-  /// The frame index of resident page entry `e`.
-  std::uint32_t frame_of(const PageEntry& e) const { return e.word >> layout_.page_shift; }
+  /// The frame offset of `page` (not_resident_ when it is not resident).
+  std::uint32_t frame_offset(std::uint32_t page) const { return table_[page].word + (page << layout_.page_shift); }
+  /// Makes `page`'s frame offset `offset`.
+  void set_frame_offset(std::uint32_t page, std::uint32_t offset) {
+    table_[page].word = offset - (page << layout_.page_shift);
+  }
   /// Gives cache frame `f` (index among the cache frames) a new LRU stamp.
   void stamp(std::uint32_t f) {
     frame_used_[f] = ++lru_clock_;
@@ -219,34 +238,41 @@ class Pager {
   /// that is still its frame's stamp. O(1) amortised (each event is
   /// dropped once).
   std::uint32_t lru_victim();
-  [[gnu::noinline]] const std::byte* fault(std::uint32_t page);
+  /// Fetches `page` from its home node into a cache frame; returns the
+  /// frame's offset.
+  [[gnu::noinline]] std::uint32_t fault(std::uint32_t page);
   /// Answers waiting page requests; defers other messages.
   void serve_or_defer(const nodes::Message& m);
 
-  nodes::NodeContext& ctx_;
+  // at()'s fields first, near each other.
+  PagerStats stats_;
+  nodes::ArenaArray<PageEntry> table_;
+  std::byte* frames_ = nullptr;
+  /// Advances at each pixel's start and end, below kEvictedInPixel; 0 = never.
+  std::uint32_t pixel_stamp_ = 1;
+  std::uint32_t home_end_ = 0;  ///< byte offset of the first cache frame: offsets below it are home pages
+  std::uint32_t pixel_pages_ = 0;
   PageLayout layout_;
+
+  nodes::NodeContext& ctx_;
   std::uint32_t nodes_;
   std::uint32_t home_frames_;
-  std::uint32_t home_end_ = 0;  ///< byte offset of the first cache frame: words below it are home pages
+  /// The frame offset of a page that is not resident: the list buffer's,
+  /// never a page's frame (an offset in it stays at or above home_end_).
+  std::uint32_t not_resident_ = 0;
   std::uint32_t cache_frames_;
   std::uint32_t cache_used_ = 0;
-  nodes::ArenaArray<PageEntry> table_;
   nodes::ArenaArray<std::uint32_t> frame_page_;  ///< per cache frame: its page, or kNone
   nodes::ArenaArray<std::uint32_t> frame_used_;  ///< per cache frame: LRU stamp of its last (first-per-pixel) touch
   nodes::ArenaArray<LruEvent> events_;           ///< ring of stamp events, oldest first (2 per cache frame)
   std::size_t events_head_ = 0, events_n_ = 0;
   nodes::ArenaArray<std::uint32_t> touched_;     ///< kTouchedCapacity slots
   nodes::ArenaArray<Line> lines_;
-  std::byte* frames_ = nullptr;
   const std::byte* cache_base_ = nullptr;  ///< first cache frame
   std::uint32_t* list_buffer_ = nullptr;   ///< one page after the cache frames
   std::uint32_t touched_n_ = 0;
   std::uint32_t lru_clock_ = 0;  ///< last LRU stamp given
-  /// Advances at each pixel's start and end, below kEvictedInPixel; 0 = never.
-  std::uint32_t pixel_stamp_ = 1;
-  std::uint32_t pixel_pages_ = 0;
   bool in_pixel_ = false;
-  PagerStats stats_;
 };
 
 }  // namespace raynode::svm

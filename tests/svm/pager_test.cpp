@@ -48,6 +48,33 @@ void with_two_nodes(const PagedImage& image, std::uint32_t cache,
 
 }  // namespace
 
+TEST_CASE("pager: at(address) reads the byte at any offset of a home, fetched or refetched page") {
+  const testing::BuiltScene b = testing::build_spd("teapot", 2);
+  for (std::uint32_t page_size : {64u, 256u, 1024u}) {
+    CAPTURE(page_size);
+    const PagedImage image = build_paged_image(b.db, b.grid, page_size);
+    const PageLayout& l = image.layout;
+    REQUIRE(l.pages > 6);
+    with_two_nodes(image, 1, [&](Pager& pager, nodes::NodeContext&) {
+      // Offsets 0, a middle one and the last byte, on pages homed at node 0
+      // (even) and node 1 (odd: fetched into the one cache frame, which
+      // each odd page evicts from the next).
+      std::uint32_t checked = 0;
+      for (std::uint32_t p : {0u, 1u, 2u, 3u, 1u, l.pages - 1, l.pages - 2, 5u})
+        for (std::uint32_t at : {0u, page_size / 2 + 8, page_size - 1}) {
+          pager.begin_pixel();
+          const std::byte got = *pager.at(l.address(p) + at);
+          REQUIRE(got == image.page(p)[at]);
+          ++checked;
+        }
+      CHECK(checked == 24);
+      CHECK(pager.stats().misses > 4);
+      CHECK(pager.stats().evictions > 3);
+      CHECK(pager.stats().accesses == 24);
+    });
+  }
+}
+
 TEST_CASE("pager: a miss fetches the page's bytes from its home node; LRU evicts the least recently used page") {
   const testing::BuiltScene b = testing::build_spd("teapot", 2);
   const PagedImage image = build_paged_image(b.db, b.grid, 64);
