@@ -140,15 +140,15 @@ class Pager {
   /// std::logic_error on a protocol error.
   const std::byte* at(std::uint64_t address) {
     ++stats_.accesses;
-    const std::uint32_t page = std::uint32_t(address >> layout_.page_shift);
-    PageEntry& e = table_[page];
+    const std::uint64_t page = address >> layout_.page_shift;  // < layout_.pages
+    PageEntry& e = table_.data()[page];
     std::uint32_t offset = e.word + std::uint32_t(address);
     if (e.stamp != pixel_stamp_) [[unlikely]] {
       if (offset < home_end_) {  // a home page's first touch in this pixel
         ++pixel_pages_;
         e.stamp = pixel_stamp_;
       } else {
-        offset = touch(page) + (std::uint32_t(address) & (layout_.page_size - 1));
+        offset = touch(std::uint32_t(page)) + (std::uint32_t(address) & (layout_.page_size - 1));
       }
     }
     return frames_ + offset;
