@@ -31,6 +31,9 @@
 #include <cstdint>
 #include <cstring>
 #include <span>
+#include <stdexcept>
+
+#include <fmt/core.h>
 
 #include "core/cell_blocks.h"
 #include "core/database.h"
@@ -45,12 +48,15 @@ class PagedView {
   PagedView(Pager& pager, const core::GridInfo& grid, std::span<const core::Material> materials)
       : pager_(&pager),
         layout_(pager.layout()),
-        directory_(layout_.address(layout_.directory_first)),
         lists_(layout_.address(layout_.list_first)),
         primitives_(layout_.address(layout_.primitive_first)),
         blocks_(layout_.address(layout_.block_first)),
         grid_(grid),
-        materials_(materials) {}
+        materials_(materials) {
+    if (layout_.directory_first != 0)
+      throw std::logic_error(fmt::format("svm: the cell directory starts at page {}, not at address 0",
+                                         layout_.directory_first));
+  }
 
   const core::GridInfo& grid_info() const { return grid_; }
 
@@ -73,7 +79,8 @@ class PagedView {
   /// packed(const core::CellBlockSpan&), a page's piece at a time.
   template <class F, class P>
   std::uint32_t visit_cell(std::uint32_t cell, F&& f, P&& packed) const {
-    const std::byte* entry = pager_->at(directory_ + std::uint64_t(cell) * sizeof(DirectoryEntry));
+    // The directory is the first segment: a cell's entry lies at cell x 8.
+    const std::byte* entry = pager_->at(std::uint64_t(cell) * sizeof(DirectoryEntry));
     std::uint32_t count, list;  // a DirectoryEntry's fields, each read as the branches need it
     std::memcpy(&count, entry + offsetof(DirectoryEntry, count), sizeof count);
     std::memcpy(&list, entry + offsetof(DirectoryEntry, list), sizeof list);
@@ -134,7 +141,7 @@ class PagedView {
   Pager* pager_;
   PageLayout layout_;  // a copy: its fields stay in the view, one load away
   /// The segments' first addresses in the shared virtual memory.
-  std::uint64_t directory_, lists_, primitives_, blocks_;
+  std::uint64_t lists_, primitives_, blocks_;
   core::GridInfo grid_;
   std::span<const core::Material> materials_;
 };

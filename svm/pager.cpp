@@ -146,35 +146,15 @@ std::uint32_t Pager::touch(std::uint32_t page) {
   return offset;
 }
 
-void Pager::next_pixel_stamp() {
-  if (++pixel_stamp_ == kEvictedInPixel) {  // wrapped: forget every stamp
-    for (std::size_t p = 0; p < table_.size(); ++p) table_[p].stamp = 0;
-    pixel_stamp_ = 1;
-  }
+void Pager::forget_stamps() {
+  for (std::size_t p = 0; p < table_.size(); ++p) table_[p].stamp = 0;
+  pixel_stamp_ = 1;
 }
 
-void Pager::end_pixel() {
-  flush_recency();
-  if (!in_pixel_) return;
-  next_pixel_stamp();  // touches until the next pixel count for nobody
-  ++stats_.pixels;
-  stats_.pixel_pages += pixel_pages_;
-  stats_.pixel_pages_max = std::max(stats_.pixel_pages_max, pixel_pages_);
-  in_pixel_ = false;
-}
-
-void Pager::begin_pixel() {
-  end_pixel();
-  next_pixel_stamp();
-  pixel_pages_ = 0;
-  in_pixel_ = true;
-  // Interrupt level: answer page requests that came in while we computed
-  // (one acquire load when there is no mail).
-  if (ctx_.has_mail()) {
-    nodes::Message m;
-    while (ctx_.poll(m)) serve_or_defer(m);
-    ctx_.resume_deferred();
-  }
+void Pager::serve_waiting() {
+  nodes::Message m;
+  while (ctx_.poll(m)) serve_or_defer(m);
+  ctx_.resume_deferred();
 }
 
 void Pager::serve_or_defer(const nodes::Message& m) {

@@ -41,6 +41,7 @@
 // before the node starts).
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 
 #include "nodes/node.h"
@@ -143,13 +144,18 @@ class Pager {
     const std::uint64_t page = address >> layout_.page_shift;  // < layout_.pages
     PageEntry& e = table_.data()[page];
     std::uint32_t offset = e.word + std::uint32_t(address);
-    if (e.stamp != pixel_stamp_) [[unlikely]] {
-      if (offset < home_end_) {  // a home page's first touch in this pixel
-        ++pixel_pages_;
-        e.stamp = pixel_stamp_;
-      } else {
-        offset = touch(std::uint32_t(page)) + (std::uint32_t(address) & (layout_.page_size - 1));
-      }
+    const std::uint32_t stamp = pixel_stamp_;
+    if (offset >= home_end_ && e.stamp != stamp) [[unlikely]] {
+      // Not home, and not touched in this pixel: a cache page's first
+      // touch, a fault, or a touch after an eviction.
+      offset = touch(std::uint32_t(page)) + (std::uint32_t(address) & (layout_.page_size - 1));
+    } else {
+      // Home, or touched in this pixel: count a home page's first touch
+      // without a branch (it depends on the pixel's path, so a branch would
+      // be mispredicted often). Here e.stamp <= stamp: a home page's stamp
+      // never carries kEvictedInPixel, a cache page's is the pixel's.
+      pixel_pages_ += std::uint32_t(e.stamp < stamp);
+      e.stamp = stamp;
     }
     return frames_ + offset;
   }
@@ -162,9 +168,25 @@ class Pager {
 
   /// Starts a pixel: ends the previous pixel's count of distinct pages
   /// (folding it into the counters) and answers page requests that wait.
-  void begin_pixel();
+  void begin_pixel() {
+    end_pixel();
+    next_pixel_stamp();
+    pixel_pages_ = 0;
+    in_pixel_ = true;
+    // Interrupt level: answer page requests that came in while we computed
+    // (one acquire load when there is no mail).
+    if (ctx_.has_mail()) [[unlikely]] serve_waiting();
+  }
   /// Ends the current pixel's count (as begin_pixel does, without serving).
-  void end_pixel();
+  void end_pixel() {
+    if (touched_n_ > 0) flush_recency();
+    if (!in_pixel_) return;
+    next_pixel_stamp();  // touches until the next pixel count for nobody
+    ++stats_.pixels;
+    stats_.pixel_pages += pixel_pages_;
+    stats_.pixel_pages_max = std::max(stats_.pixel_pages_max, pixel_pages_);
+    in_pixel_ = false;
+  }
   /// Distinct pages touched since the last begin_pixel().
   std::uint32_t pixel_pages() const { return pixel_pages_; }
 
@@ -216,7 +238,13 @@ class Pager {
   [[gnu::noinline]] void flush_recency();
   /// Advances the pixel stamp (every entry leaves the fast path); on
   /// wrapping, forgets every entry's stamp.
-  void next_pixel_stamp();
+  void next_pixel_stamp() {
+    if (++pixel_stamp_ == kEvictedInPixel) [[unlikely]] forget_stamps();
+  }
+  /// On the stamp's wrapping: every entry's stamp back to 0, the pixel's to 1.
+  [[gnu::noinline]] void forget_stamps();
+  /// Answers the page requests that wait; defers other messages.
+  [[gnu::noinline]] void serve_waiting();
   /// The frame offset of `page` (not_resident_ when it is not resident).
   std::uint32_t frame_offset(std::uint32_t page) const { return table_[page].word + (page << layout_.page_shift); }
   /// Makes `page`'s frame offset `offset`.
