@@ -8,7 +8,8 @@
 // no locality strategy) -> the image is protected and freed; nodes reach
 // objects only through their pager (pager.h) and PagedView (paged_view.h).
 //
-// Segments, in page order (each starts on a page boundary):
+// Segments, in page order (each starts on a page boundary; the directory
+// is first, at address 0, which PagedView relies on):
 //   directory  one 8-byte DirectoryEntry per grid cell (the "voxels"):
 //              how many primitives the cell lists and where its list starts
 //              (for an empty cell, its empty-space distance instead, so the

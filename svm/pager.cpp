@@ -252,14 +252,15 @@ std::uint32_t Pager::fault(std::uint32_t page) {
   ctx_.advance_to(arrival, nodes::WaitKind::kCommunication);
   frame_page_[victim - home_frames_] = page;
   stamp(victim - home_frames_);
-  set_frame_offset(page, victim << layout_.page_shift);
+  const std::uint32_t offset = victim << layout_.page_shift;
+  set_frame_offset(page, offset);
   // Compute again only with a run permit, answering requests meanwhile.
   while (released && !ctx_.try_resume()) {
     ctx_.wait_for_mail(0);
     while (ctx_.poll(m)) serve_or_defer(m);
   }
   ctx_.resume_deferred();
-  return victim << layout_.page_shift;
+  return offset;
 }
 
 }  // namespace raynode::svm

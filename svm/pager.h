@@ -124,21 +124,22 @@ class Pager {
   /// touched in the current pixel (distinct pages per pixel).
   ///
   /// The hot path, the same for one node as for 64, is one page-table
-  /// entry: its stamp equal to the pixel's means resident and touched in
-  /// this pixel, and its word plus the address, modulo 2^32, is the byte's
-  /// offset from the frames (the word is the frame's offset minus the
-  /// page's address), so the offset in the page needs no masking. A home
-  /// page's first touch in a pixel (the offset lies below the cache frames)
-  /// counts the distinct page and stamps the entry inline. Any other first
-  /// touch (a cache page, a fault, a touch after an eviction in this
-  /// pixel) goes to touch(): it notes a non-home page's first touch in a
-  /// short list, faults when the page is not resident, and stamps the
-  /// entry. The list updates the pages' LRU recency at the pixel's end or
-  /// at the next fault (flush_recency), before any victim is chosen, so
-  /// evictions are those of an LRU updated at each first touch. A new pixel
-  /// needs no pass over the touched pages: it only advances the stamp.
-  /// Throws what the messaging throws (nodes::RunAborted) and
-  /// std::logic_error on a protocol error.
+  /// entry. Its word plus the address, modulo 2^32, is the byte's offset
+  /// from the frames (the word is the frame's offset minus the page's
+  /// address), so the offset in the page needs no masking. Its one branch
+  /// is "not home and not touched in this pixel" (its stamp is not the
+  /// pixel's): touch() then notes the cache page's first touch in a short
+  /// list, faults when the page is not resident (or was evicted in this
+  /// pixel), and stamps the entry. Otherwise the entry takes the pixel's
+  /// stamp and a home page's first touch is counted without a branch: that
+  /// branch would follow the pixel's path through the scene and be
+  /// mispredicted often (docs/results.md, "One node, fifth pass"). The list
+  /// updates the pages' LRU recency at the pixel's end or at the next
+  /// fault (flush_recency), before any victim is chosen, so evictions are
+  /// those of an LRU updated at each first touch. A new pixel needs no pass
+  /// over the touched pages: it only advances the stamp. Throws what the
+  /// messaging throws (nodes::RunAborted) and std::logic_error on a
+  /// protocol error.
   const std::byte* at(std::uint64_t address) {
     ++stats_.accesses;
     const std::uint64_t page = address >> layout_.page_shift;  // < layout_.pages
@@ -150,16 +151,15 @@ class Pager {
       // touch, a fault, or a touch after an eviction.
       offset = touch(std::uint32_t(page)) + (std::uint32_t(address) & (layout_.page_size - 1));
     } else {
-      // Home, or touched in this pixel: count a home page's first touch
-      // without a branch (it depends on the pixel's path, so a branch would
-      // be mispredicted often). Here e.stamp <= stamp: a home page's stamp
-      // never carries kEvictedInPixel, a cache page's is the pixel's.
+      // Home, or touched in this pixel. Here e.stamp <= stamp (a home
+      // page's stamp never carries kEvictedInPixel, a cache page's is the
+      // pixel's), so `<` is "first touch".
       pixel_pages_ += std::uint32_t(e.stamp < stamp);
       e.stamp = stamp;
     }
     return frames_ + offset;
   }
-  /// True if `p` (from access()) lies in a cache frame, which a later
+  /// True if `p` (from at() or access()) lies in a cache frame, which a later
   /// access may evict; home pages never move.
   bool in_cache(const void* p) const { return static_cast<const std::byte*>(p) >= cache_base_; }
   /// A page-sized buffer of the node's (in its arena), for copying a list
