@@ -23,6 +23,7 @@ NetworkModel make_network(const std::string& name, double seconds_per_ray, const
     m.latency_s = m.scale * (1024.0 / rate_1k - 1024.0 / peak);
     m.per_hop_s = m.scale * 10e-6;
     m.service_s = m.scale * 100e-6;
+    m.fault_s = m.service_s;
     return m;
   }
   if (name == "cluster") {

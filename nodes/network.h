@@ -27,6 +27,12 @@
 // Every preset also names the cost of serving a message at interrupt level
 // (`service`, e.g. a page request at its home node): ipsc2 charges 0.1 ms
 // (about a 1 KiB copy at the 80386's ~10 MB/s memory bandwidth), scaled.
+// ipsc2 charges the same for the faulting node's own work on a page fault
+// (`fault`: the trap, the reply's 1 KiB copy into a frame, the table),
+// under the model clock: the two ends of a page's transfer then cost the
+// iPSC/2's share of a ray (~0.012 ray-times) alike. Under the other presets
+// a fault's own work is the cost model's (core/cost_model.h: ~0.15 us, a
+// modern node's, some 0.8 ray-times) or, under the CPU clock, measured.
 #pragma once
 
 #include <cstdint>
@@ -45,6 +51,9 @@ struct NetworkModel {
   double per_byte_s = 0;  ///< virtual seconds per byte on the wire
   double per_hop_s = 0;   ///< virtual seconds per link crossed
   double service_s = 0;   ///< receiver's cost to serve a message at interrupt level
+  /// A page fault's own work at the faulting node under the model clock,
+  /// virtual seconds; < 0: the cost model's (CostFeature::kPageFault).
+  double fault_s = -1;
   double scale = 1;       ///< the factor applied to the preset's real figures
 
   /// Transfer time of `bytes` over `hops` links, virtual seconds.

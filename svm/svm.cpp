@@ -189,6 +189,7 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
     s->batch = nodes::PixelBatch(a, m.max_payload);
     s->scratch = a.create<core::ShadingScratch>("its tracing scratch");
     s->cost_model = m.cost_model;
+    if (m.network.fault_s >= 0) s->cost_model.unit_s[std::size_t(core::CostFeature::kPageFault)] = m.network.fault_s;
     s->pager = a.create<Pager>("its pager", ctx, layout, cache[ctx.id()]);
     for (std::uint32_t p = ctx.id(); p < layout.pages; p += m.nodes)
       std::memcpy(s->pager->home_frame(p), in.image->page(p).data(), layout.page_size);

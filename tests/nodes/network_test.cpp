@@ -18,6 +18,11 @@ TEST_CASE("network: the ipsc2 preset keeps the paper's figures in ray-times — 
   CHECK(fast.message_time(1024, 1) / (kIpsc2SecondsPerRay / 1e4) ==
         doctest::Approx(real.message_time(1024, 1) / kIpsc2SecondsPerRay));
   CHECK(real.message_time(1024, 0) / kIpsc2SecondsPerRay == doctest::Approx(0.138).epsilon(0.01));
+  // Both ends of a page's transfer (the home's service, the faulting node's
+  // own work) cost 0.1 ms on the iPSC/2, ~0.012 ray-times, at any speed.
+  CHECK(real.service_s == doctest::Approx(100e-6));
+  CHECK(real.fault_s == doctest::Approx(100e-6));
+  CHECK(fast.fault_s / (kIpsc2SecondsPerRay / 1e4) == doctest::Approx(0.0121).epsilon(0.01));
 }
 
 TEST_CASE("network: none is free, cluster is unscaled, unknown names are refused") {
@@ -27,4 +32,7 @@ TEST_CASE("network: none is free, cluster is unscaled, unknown names are refused
   CHECK(cluster.message_time(0, 0) == doctest::Approx(1.5e-6));
   CHECK(cluster.message_time(12500, 0) == doctest::Approx(1.5e-6 + 1e-6));
   CHECK_THROWS_AS(make_network("ethernet"), std::invalid_argument);
+  // A fault's own work is left to the compute clock (the cost model's).
+  CHECK(none.fault_s < 0);
+  CHECK(cluster.fault_s < 0);
 }

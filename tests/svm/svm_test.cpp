@@ -162,6 +162,30 @@ TEST_CASE("svm: page faults cost virtual time under a network model, booked as c
   CHECK(total.communication_s >= 0.99 * double(t.misses) * min_wait);
 }
 
+TEST_CASE("svm: under the model clock a fault's own work costs the network's fault_s, else the cost model's") {
+  const testing::BuiltScene b = testing::build_spd("teapot", 2);
+  const double big = 1e-3;  // far above the tracing of this small render
+  for (const bool network_says : {true, false}) {
+    CAPTURE(network_says);
+    SvmParams p = small_params(4, 2);
+    p.machine.clock = nodes::ComputeClock::kModel;
+    p.machine.network = nodes::make_network("none");
+    if (network_says) p.machine.network.fault_s = big;
+    else p.machine.cost_model.unit_s[std::size_t(core::CostFeature::kPageFault)] = big / 1e4;
+    const SvmResult r = render_svm(b.db, b.grid, p);
+    const double misses = double(r.pager_total().misses);
+    REQUIRE(misses > 0);
+    const double busy = r.run.total().busy_s;
+    if (network_says) {
+      CHECK(busy >= misses * big);
+      CHECK(busy < misses * big * 1.5);
+    } else {
+      CHECK(busy >= misses * big / 1e4);
+      CHECK(busy < misses * big * 0.5);
+    }
+  }
+}
+
 TEST_CASE("svm: a database too big for the nodes stops at once, naming the sizes") {
   const testing::BuiltScene b = testing::build_spd("tetra", 5);
   SvmParams p = small_params(2, 0);
