@@ -107,7 +107,9 @@ inline CostModel default_cost_model() {
   // Modelled, not fitted: the local work of a fault (pick the victim, copy
   // a 1 KiB page into its frame, update the table) ~ 0.15 us. The CPU time
   // of a fault in an emulated run (~2.6 us fitted) is mostly the emulator's
-  // thread wake-up and cold caches, which no real node pays.
+  // thread wake-up and cold caches, which no real node pays. The ipsc2
+  // network replaces it with the iPSC/2's figure, scaled
+  // (nodes::NetworkModel::fault_s).
   at(CostFeature::kPageFault) = 150e-9;
   return m;
 }
