@@ -180,6 +180,10 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
 
   // The load phase (outside virtual time): each node gets its home pages
   // and the metadata; after the last node the host's image is protected.
+  // The model clock's unit costs; a network that prices a fault's own work
+  // (ipsc2: NetworkModel::fault_s) replaces the cost model's figure.
+  core::CostModel cost_model = m.cost_model;
+  if (m.network.fault_s >= 0) cost_model.unit_s[std::size_t(core::CostFeature::kPageFault)] = m.network.fault_s;
   auto setup = [&](NodeContext& ctx) {
     nodes::Arena& a = ctx.arena();
     auto s = std::make_unique<NodeState>(in.grid, in.camera, in.background, rp, submaps[ctx.id()]);
@@ -188,8 +192,7 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
     s->lights = nodes::copy_to_arena(a, in.lights, "the lights");
     s->batch = nodes::PixelBatch(a, m.max_payload);
     s->scratch = a.create<core::ShadingScratch>("its tracing scratch");
-    s->cost_model = m.cost_model;
-    if (m.network.fault_s >= 0) s->cost_model.unit_s[std::size_t(core::CostFeature::kPageFault)] = m.network.fault_s;
+    s->cost_model = cost_model;
     s->pager = a.create<Pager>("its pager", ctx, layout, cache[ctx.id()]);
     for (std::uint32_t p = ctx.id(); p < layout.pages; p += m.nodes)
       std::memcpy(s->pager->home_frame(p), in.image->page(p).data(), layout.page_size);
