@@ -73,6 +73,7 @@ struct RenderOptions {
   std::string mail_wakeups = "auto";
   std::string clock = "cpu";
   std::string work_requests = "ring";
+  std::string work_grants = "item";
   // svm
   std::uint32_t page_size = 1024;
   std::string cache;  ///< "" = all free memory, "N" pages or "P%" of the database
@@ -117,8 +118,9 @@ nodes::MachineParams machine_params(const RenderOptions& o) {
   try {
     m.clock = nodes::parse_compute_clock(o.clock);
     m.work_request_route = nodes::parse_work_request_route(o.work_requests);
+    m.work_grant = nodes::parse_work_grant(o.work_grants);
   } catch (const std::invalid_argument& e) {
-    throw UsageError(std::string("--clock/--work-requests: ") + e.what());
+    throw UsageError(std::string("--clock/--work-requests/--work-grants: ") + e.what());
   }
   m.network = nodes::make_network(o.network, o.network_scale,
                                   m.clock == nodes::ComputeClock::kModel ? &m.cost_model : nullptr);
@@ -151,7 +153,8 @@ void fill_work_stats(const std::vector<nodes::WorkStats>& work, const std::vecto
   j["efficiency_estimate"] = run.parallel_time_s > 0 ? busy / (double(node_count) * run.parallel_time_s) : 0.0;
   j["work"] = {{"items_own", sum.items_own},         {"items_received", sum.items_received},
                {"requests_sent", sum.requests_sent}, {"requests_forwarded", sum.requests_forwarded},
-               {"grants", sum.grants_given},         {"request_hops", sum.request_hops}};
+               {"grants", sum.grants_given},         {"pixels_granted", sum.pixels_granted},
+               {"request_hops", sum.request_hops}};
   for (std::size_t i = 0; i < work.size() && i < j["per_node"].size(); ++i) {
     auto& e = j["per_node"][i];
     e["pixels"] = work[i].pixels;
@@ -627,6 +630,13 @@ void register_render_command(CLI::App& app) {
                 "round the ring) or last-grantor (first straight to the node that gave it its last item, then "
                 "the ring: fewer hops)")
       ->check(CLI::IsMember({"ring", "last-grantor"}))
+      ->capture_default_str();
+  c->add_option("--work-grants", o->work_grants,
+                "replicated, svm: what a busy node grants a work request: item (the paper: one work item from "
+                "the far end of its submap) or half (the far half of its remaining item rows, or of its last "
+                "row's items, as one rectangle that the requester renders as its new submap and grants from in "
+                "turn: a requester's pixels stay together, so its cache and svm's pages serve more of them)")
+      ->check(CLI::IsMember({"item", "half"}))
       ->capture_default_str();
   c->add_option("--schedule-window", o->schedule_window_us,
                 "Node modes: virtual-time scheduling window in microseconds: a node this far ahead of a waiting "

@@ -43,6 +43,11 @@ void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) 
                "node that gave it its last item)")
       ->check(CLI::IsMember({"ring", "last-grantor"}))
       ->capture_default_str();
+  c.add_option("--work-grants", o.work_grants,
+               "replicated, svm: what a busy node grants: item (the paper: one work item) or half (half its "
+               "remaining item rows as a rectangle the requester takes as its submap)")
+      ->check(CLI::IsMember({"item", "half"}))
+      ->capture_default_str();
   c.add_option("--schedule-window", o.schedule_window_us,
                "Virtual-time scheduling window in microseconds (negative = off, the OS schedules the node threads)")
       ->capture_default_str();
@@ -99,8 +104,9 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
     m.topology = nodes::parse_topology(o.topology);
     m.clock = nodes::parse_compute_clock(o.clock);
     m.work_request_route = nodes::parse_work_request_route(o.work_requests);
+    m.work_grant = nodes::parse_work_grant(o.work_grants);
   } catch (const std::invalid_argument& e) {
-    throw UsageError(std::string("--topology/--clock/--work-requests: ") + e.what());
+    throw UsageError(std::string("--topology/--clock/--work-requests/--work-grants: ") + e.what());
   }
   m.timeout_s = o.timeout_s;
   m.schedule_window_s = o.schedule_window_us * 1e-6;

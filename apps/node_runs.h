@@ -54,6 +54,7 @@ struct NodeRunOptions {
   std::string mail_wakeups = "auto";   ///< --mail-wakeups: auto, scheduled or immediate
   std::string clock = "cpu";            ///< cpu or model (nodes::ComputeClock)
   std::string work_requests = "ring";   ///< ring or last-grantor (nodes::WorkRequestRoute)
+  std::string work_grants = "item";     ///< item or half (nodes::WorkGrant)
   double timeout_s = 0;                 ///< per run, wall seconds; 0 = none
   int repeat = 1;                       ///< runs per point; the lowest T_p is kept
   bool skip_empty = true;               ///< grid: empty-space jumps (core::GridParams::skip_empty)

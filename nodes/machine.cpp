@@ -255,6 +255,7 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
   report.topology = topology_name(params_.topology);
   report.clock = compute_clock_name(params_.clock);
   report.work_requests = work_request_route_name(params_.work_request_route);
+  report.work_grants = work_grant_name(params_.work_grant);
   for (NodeId i = 0; i < n; ++i) {
     report.nodes.push_back(make_report(*state.nodes[i], final_clock[i]));
     const NodeReport& nr = report.nodes.back();
@@ -309,6 +310,7 @@ nlohmann::json RunReport::to_json(bool per_node) const {
   j["topology"] = topology;
   j["clock"] = clock;
   j["work_requests"] = work_requests;
+  j["work_grants"] = work_grants;
   j["parallel_time_s"] = parallel_time_s;
   j["wall_s"] = wall_s;
   j["scheduler"] = {{"compute_grants", compute_grants},
@@ -353,6 +355,14 @@ WorkRequestRoute parse_work_request_route(const std::string& text) {
 const char* work_request_route_name(WorkRequestRoute r) {
   return r == WorkRequestRoute::kLastGrantor ? "last-grantor" : "ring";
 }
+
+WorkGrant parse_work_grant(const std::string& text) {
+  if (text == "item") return WorkGrant::kItem;
+  if (text == "half") return WorkGrant::kHalf;
+  throw std::invalid_argument("work grants are item or half, got '" + text + "'");
+}
+
+const char* work_grant_name(WorkGrant g) { return g == WorkGrant::kHalf ? "half" : "item"; }
 
 std::size_t parse_bytes(const std::string& text) {
   std::size_t i = 0;

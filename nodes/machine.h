@@ -71,6 +71,8 @@ struct MachineParams {
   std::optional<bool> scheduled_mail;
   /// Where idle nodes send work requests (work.h; `--work-requests`).
   WorkRequestRoute work_request_route = WorkRequestRoute::kRing;
+  /// What a busy node grants a work request (work.h; `--work-grants`).
+  WorkGrant work_grant = WorkGrant::kItem;
   /// What advances a node's clock while it computes (node.h, "Virtual time").
   ComputeClock clock = ComputeClock::kCpu;
   /// The unit costs the modes' work meters use under ComputeClock::kModel.
@@ -106,6 +108,7 @@ struct RunReport {
   std::string topology;
   std::string clock;           ///< "cpu" or "model" (MachineParams::clock)
   std::string work_requests;   ///< "ring" or "last-grantor" (MachineParams::work_request_route)
+  std::string work_grants;     ///< "item" or "half" (MachineParams::work_grant)
   /// The virtual-time scheduler's work (scheduler.h): compute permits
   /// granted, of them taken back a window ahead, and service permits
   /// granted for mail; all 0 with scheduling off.
@@ -177,6 +180,10 @@ const char* compute_clock_name(ComputeClock c);
 WorkRequestRoute parse_work_request_route(const std::string& text);
 /// "ring" or "last-grantor".
 const char* work_request_route_name(WorkRequestRoute r);
+/// "item" or "half" (--work-grants). Throws std::invalid_argument naming the text.
+WorkGrant parse_work_grant(const std::string& text);
+/// "item" or "half".
+const char* work_grant_name(WorkGrant g);
 
 /// Parses a byte size: "4MiB", "512KiB", "1GiB", "4M", "1048576" (bytes).
 /// Throws std::invalid_argument with the text on a malformed or zero size.

@@ -61,6 +61,7 @@ std::uint32_t NodeContext::node_count() const { return machine_->params.nodes; }
 const Topology& NodeContext::topology() const { return machine_->topology; }
 const NetworkModel& NodeContext::network() const { return machine_->params.network; }
 WorkRequestRoute NodeContext::work_request_route() const { return machine_->params.work_request_route; }
+WorkGrant NodeContext::work_grant() const { return machine_->params.work_grant; }
 
 void NodeContext::sync_compute() {
   if (id_ == kHost) return;  // the host is outside the emulated machine: its bookkeeping takes no virtual time

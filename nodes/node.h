@@ -52,6 +52,14 @@ namespace raynode::nodes {
 /// the requester's successor if that node has none left.
 enum class WorkRequestRoute : std::uint8_t { kRing, kLastGrantor };
 
+/// What a busy node grants a work request (work.h): kItem, the paper's rule,
+/// one work item from the far end of its submap; kHalf the far half of its
+/// remaining item rows (within one row, half of its items) as one
+/// rectangle, which the requester renders as its new submap and may in
+/// turn grant from. kHalf keeps a requester's pixels together, so the pages
+/// it fetches serve many of them (svm), and needs fewer requests.
+enum class WorkGrant : std::uint8_t { kItem, kHalf };
+
 /// Thrown inside node code when the run is being stopped because another
 /// participant failed (or the watchdog fired); Machine::run swallows it.
 class RunAborted : public std::runtime_error {
@@ -141,6 +149,8 @@ class NodeContext {
   const NetworkModel& network() const;
   /// Where an idle node sends its next work request (MachineParams).
   WorkRequestRoute work_request_route() const;
+  /// What a busy node grants a work request (MachineParams).
+  WorkGrant work_grant() const;
   Arena& arena() { return arena_; }
   Mailbox& mailbox() { return *mailbox_; }
   const NodeCounters& counters() const { return counters_; }

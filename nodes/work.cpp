@@ -70,6 +70,26 @@ bool WorkPool::take_back(Rect& out) {
   return true;
 }
 
+bool WorkPool::take_back_half(Rect& out) {
+  if (front_ >= back_) return false;
+  const std::uint32_t first_whole_row = (front_ + cols_ - 1) / cols_;  // rows from here on are untouched by the front
+  const std::uint32_t whole_rows = back_ % cols_ == 0 ? back_ / cols_ - first_whole_row : 0;
+  if (whole_rows >= 2) {
+    const std::uint32_t rows = whole_rows / 2;
+    back_ -= rows * cols_;
+    const Rect first = item(back_), last = item(back_ + rows * cols_ - 1);
+    out = Rect{first.x0, first.y0, last.x1, last.y1};
+    return true;
+  }
+  // The last row's remaining items, contiguous: the back half of them.
+  const std::uint32_t row_start = std::max(front_, (back_ - 1) / cols_ * cols_);
+  const std::uint32_t n = std::max(1u, (back_ - row_start) / 2);
+  back_ -= n;
+  const Rect first = item(back_), last = item(back_ + n - 1);
+  out = Rect{first.x0, first.y0, last.x1, last.y1};
+  return true;
+}
+
 WorkStats& WorkStats::operator+=(const WorkStats& o) {
   items_own += o.items_own;
   items_received += o.items_received;
@@ -78,6 +98,7 @@ WorkStats& WorkStats::operator+=(const WorkStats& o) {
   requests_forwarded += o.requests_forwarded;
   requests_returned += o.requests_returned;
   grants_given += o.grants_given;
+  pixels_granted += o.pixels_granted;
   request_hops += o.request_hops;
   done_time_s = std::max(done_time_s, o.done_time_s);
   return *this;
@@ -147,9 +168,10 @@ class Farm {
         }
         Rect item;
         ctx_.charge(ctx_.network().service_s);
-        if (pool.take_back(item)) {
+        if (ctx_.work_grant() == WorkGrant::kHalf ? pool.take_back_half(item) : pool.take_back(item)) {
           ctx_.send(r.origin, MessageType::kWorkGrant, WorkGrantMsg{item}, {}, at);
           ++stats.grants_given;
+          stats.pixels_granted += std::uint64_t(item.area());
         } else {
           ++r.hops;
           // On round the ring, past the origin, back to the origin when the
@@ -191,6 +213,7 @@ WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_
                         const OtherMessageHandler& other, PixelBatch* batch) {
   Farm farm(ctx, other);
   WorkPool pool(submap, item_w, item_h);
+  bool own_pool = true;  // false once the pool is a granted rectangle (WorkGrant::kHalf)
   bool have_grant = false, request_out = false, done = false;
   Rect grant;
   Message m;
@@ -206,10 +229,20 @@ WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_
       ctx.wait_for_mail(0);
       continue;
     }
+    if (have_grant && ctx.work_grant() == WorkGrant::kHalf) {
+      // The granted rectangle is our submap now: rendered item by item
+      // from its near end, granted from at its far end. Its first item is
+      // taken at once, before any request is served: every grant is
+      // worked on by its receiver.
+      have_grant = false;
+      request_out = false;
+      pool = WorkPool(grant, item_w, item_h);
+      own_pool = false;
+    }
     Rect item;
     if (pool.take_front(item)) {
       render_item(ctx, item);
-      ++farm.stats.items_own;
+      ++(own_pool ? farm.stats.items_own : farm.stats.items_received);
       farm.stats.pixels += std::uint64_t(item.area());
       continue;
     }

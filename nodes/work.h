@@ -3,7 +3,10 @@
 // each node owns a near-square submap of the image, renders it work item by
 // work item (default 3x3 pixels) from its near end, and when it runs dry
 // sends a work request around the ring embedded in the topology. A busy node
-// grants the requester one work item from the far end of its submap; an
+// grants the requester work from the far end of its submap: one work item
+// (WorkGrant::kItem, the paper's rule and the default) or (kHalf) the far
+// half of its remaining item rows as one rectangle, which the requester renders
+// as its new submap, item by item, and grants from in turn; an
 // idle node forwards the request to its ring successor; a request that
 // comes back to its origin unsatisfied means no node has work left to give,
 // so the origin's work is over. With WorkRequestRoute::kLastGrantor a
@@ -58,6 +61,11 @@ class WorkPool {
   WorkPool(const Rect& area, std::int32_t item_w, std::int32_t item_h);
   bool take_front(Rect& item);
   bool take_back(Rect& item);
+  /// Takes the back half of what remains as one rectangle (WorkGrant::kHalf):
+  /// half of the whole item rows below the front's row (rounded down), or,
+  /// when fewer than two remain or the last row is partly taken, half of
+  /// the last row's items (at least one). False when nothing remains.
+  bool take_back_half(Rect& rect);
   std::uint32_t remaining() const { return back_ - front_; }
 
  private:
@@ -92,12 +100,13 @@ struct PixelsMsg {
 /// Counters of the work distribution on one node.
 struct WorkStats {
   std::uint64_t items_own = 0;         ///< items rendered from the own submap
-  std::uint64_t items_received = 0;    ///< items received by grants and rendered
+  std::uint64_t items_received = 0;    ///< items received by grants (or taken from a granted rectangle) and rendered
   std::uint64_t pixels = 0;            ///< pixels rendered
   std::uint64_t requests_sent = 0;     ///< own requests started
   std::uint64_t requests_forwarded = 0;
   std::uint64_t requests_returned = 0; ///< own request came back: end of work (0 or 1)
   std::uint64_t grants_given = 0;
+  std::uint64_t pixels_granted = 0;    ///< pixels of the grants given
   std::uint64_t request_hops = 0;      ///< ring hops of own requests until granted or returned
   double done_time_s = 0;              ///< virtual time the node's work ended
   WorkStats& operator+=(const WorkStats& o);

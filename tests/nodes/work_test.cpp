@@ -50,6 +50,49 @@ TEST_CASE("work: a pool hands out items from both ends, each once, clipped to th
   CHECK_FALSE(pool.take_front(r));
 }
 
+TEST_CASE("work: a pool's half grants are rectangles of whole items, the far half of its rows, then of its last row's items") {
+  const Rect area{5, 7, 35, 36};  // 30 x 29 -> 10 x 10 items of 3x3, the last row 2 pixels high
+  WorkPool pool(area, 3, 3);
+  std::vector<int> cover(30 * 29, 0);
+  auto mark = [&](const Rect& r) {
+    REQUIRE_FALSE(r.empty());
+    for (int y = r.y0; y < r.y1; ++y)
+      for (int x = r.x0; x < r.x1; ++x) ++cover[std::size_t(y - area.y0) * 30 + (x - area.x0)];
+  };
+  Rect r;
+  REQUIRE(pool.take_front(r));  // item 0: rows 1..9 stay whole
+  mark(r);
+  REQUIRE(pool.take_back_half(r));
+  CHECK(r == Rect{5, 7 + 6 * 3, 35, 36});  // 4 of the 9 whole rows: rows 6..9
+  mark(r);
+  CHECK(pool.remaining() == 59);
+  REQUIRE(pool.take_back_half(r));
+  CHECK(r == Rect{5, 7 + 4 * 3, 35, 7 + 6 * 3});  // 2 of rows 1..5
+  mark(r);
+  REQUIRE(pool.take_back_half(r));
+  CHECK(r == Rect{5, 7 + 3 * 3, 35, 7 + 4 * 3});  // 1 of rows 1..3
+  mark(r);
+  REQUIRE(pool.take_back_half(r));
+  CHECK(r == Rect{5, 7 + 2 * 3, 35, 7 + 3 * 3});  // 1 of rows 1..2
+  mark(r);
+  REQUIRE(pool.take_back_half(r));
+  CHECK(r == Rect{5 + 5 * 3, 7 + 3, 35, 7 + 6});  // row 1 alone: its last 5 items
+  mark(r);
+  REQUIRE(pool.take_back_half(r));
+  CHECK(r == Rect{5 + 3 * 3, 7 + 3, 5 + 5 * 3, 7 + 6});  // then 2 of its 5 left
+  mark(r);
+  // The rest, front and back alternating, one item at least a grant.
+  for (bool back = true;; back = !back) {
+    const std::uint32_t before = pool.remaining();
+    if (!(back ? pool.take_back_half(r) : pool.take_front(r))) break;
+    CHECK(pool.remaining() < before);
+    mark(r);
+  }
+  CHECK(pool.remaining() == 0);
+  CHECK(std::all_of(cover.begin(), cover.end(), [](int c) { return c == 1; }));
+  CHECK_FALSE(pool.take_back_half(r));
+}
+
 namespace {
 
 /// Runs the farm on n nodes with a render_item that costs `work(rect)` and
@@ -60,11 +103,12 @@ struct FarmRun {
   RunReport report;
 };
 
-FarmRun run_farm(std::uint32_t n, int w, int h, bool skewed,
-                 WorkRequestRoute route = WorkRequestRoute::kRing) {
+FarmRun run_farm(std::uint32_t n, int w, int h, bool skewed, WorkRequestRoute route = WorkRequestRoute::kRing,
+                 WorkGrant grant = WorkGrant::kItem) {
   MachineParams p;
   p.nodes = n;
   p.work_request_route = route;
+  p.work_grant = grant;
   p.timeout_s = 120;
   p.max_payload = pixels_payload_bytes(3, 3, 1);
   FarmRun out;
@@ -106,16 +150,25 @@ FarmRun run_farm(std::uint32_t n, int w, int h, bool skewed,
 }  // namespace
 
 TEST_CASE("work: every pixel is rendered exactly once for N in {1, 2, 3, 7, 16, 64}, and idle nodes get work") {
+  for (WorkGrant grant : {WorkGrant::kItem, WorkGrant::kHalf})
   for (WorkRequestRoute route : {WorkRequestRoute::kRing, WorkRequestRoute::kLastGrantor})
   for (std::uint32_t n : {1u, 2u, 3u, 7u, 16u, 64u}) {
+    CAPTURE(work_grant_name(grant));
     CAPTURE(work_request_route_name(route));
     CAPTURE(n);
-    const FarmRun run = run_farm(n, 90, 60, true, route);
+    const FarmRun run = run_farm(n, 90, 60, true, route, grant);
+    CHECK(run.report.work_grants == work_grant_name(grant));
     CHECK(std::all_of(run.owner.begin(), run.owner.end(), [](int o) { return o >= 0; }));
     WorkStats total;
     for (const WorkStats& s : run.stats) total += s;
     CHECK(total.pixels == 90u * 60u);
-    CHECK(total.items_received == total.grants_given);
+    if (grant == WorkGrant::kItem) {
+      CHECK(total.items_received == total.grants_given);  // a grant is one item, rendered by its receiver
+    } else {
+      CHECK(total.items_received >= total.grants_given);  // a grant is one item or more
+      // Pixels granted on from a granted rectangle count again.
+      CHECK(total.pixels_granted >= total.items_received);
+    }
     CHECK(total.requests_returned == n);  // every node's work ends by its request returning
     CHECK(total.requests_sent == total.grants_given + n);
     const NodeCounters c = run.report.total();
@@ -142,6 +195,27 @@ TEST_CASE("work: requests sent first to the last grantor travel fewer hops than 
     forwarded[i++] = total.requests_forwarded;
   }
   CHECK(forwarded[1] < forwarded[0]);  // measured: ~0.4x
+}
+
+TEST_CASE("work: half grants need fewer requests than item grants and keep a requester's pixels in fewer, larger pieces") {
+  // 64 nodes, the left quarter 20x costlier (as above). An item grant is
+  // one 3x3 item; a half grant the far half of the grantor's rows.
+  std::uint64_t requests[2] = {0, 0}, granted[2] = {0, 0};
+  int i = 0;
+  for (WorkGrant grant : {WorkGrant::kItem, WorkGrant::kHalf}) {
+    CAPTURE(work_grant_name(grant));
+    const FarmRun run = run_farm(64, 192, 128, true, WorkRequestRoute::kRing, grant);
+    WorkStats total;
+    for (const WorkStats& s : run.stats) total += s;
+    REQUIRE(total.grants_given > 0);
+    CHECK(std::all_of(run.owner.begin(), run.owner.end(), [](int o) { return o >= 0; }));
+    requests[i] = total.requests_sent;
+    granted[i] = total.pixels_granted / total.grants_given;  // mean pixels a grant
+    ++i;
+  }
+  CHECK(granted[0] <= 9);
+  CHECK(granted[1] > 2 * granted[0]);
+  CHECK(requests[1] < requests[0]);
 }
 
 TEST_CASE("work: a pixel batch carries several blocks a message, every pixel once, and refuses a block beyond its buffer") {
