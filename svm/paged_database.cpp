@@ -72,6 +72,17 @@ std::uint32_t pages_for(std::uint64_t bytes, std::uint32_t page_size) {
 
 }  // namespace
 
+const char* segment_name(Segment s) {
+  switch (s) {
+    case Segment::kDirectory: return "directory";
+    case Segment::kLists: return "lists";
+    case Segment::kPrimitives: return "primitives";
+    case Segment::kNormals: return "normals";
+    case Segment::kBlocks: return "blocks";
+  }
+  return "?";
+}
+
 PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, std::uint32_t page_size,
                             const core::CellBlocks* blocks) {
   if (page_size < kMinPageSize || page_size > kMaxPageSize || !std::has_single_bit(page_size))

@@ -58,6 +58,12 @@ static_assert(sizeof(DirectoryEntry) == 8);
 /// DirectoryEntry::count's flag of a packed cell.
 inline constexpr std::uint32_t kPackedCell = 1u << 31;
 
+/// The segments of the shared virtual memory, in page order.
+enum class Segment : std::uint8_t { kDirectory, kLists, kPrimitives, kNormals, kBlocks };
+inline constexpr std::size_t kSegments = 5;
+/// "directory", "lists", "primitives", "normals", "blocks".
+const char* segment_name(Segment s);
+
 /// Smallest page: one Primitive record.
 inline constexpr std::uint32_t kMinPageSize = sizeof(core::Primitive);
 /// Largest page (a page travels in one message).
@@ -88,6 +94,14 @@ struct PageLayout {
 
   /// The shared-virtual-memory address of `page`'s first byte (Pager::at).
   std::uint64_t address(std::uint32_t page) const { return std::uint64_t(page) << page_shift; }
+  /// The segment `page` (< pages) belongs to.
+  Segment segment(std::uint32_t page) const {
+    if (page >= block_first && block_pages > 0) return Segment::kBlocks;
+    if (page >= normals_first && normals_pages > 0) return Segment::kNormals;
+    if (page >= primitive_first) return Segment::kPrimitives;
+    if (page >= list_first) return Segment::kLists;
+    return Segment::kDirectory;
+  }
   /// Bytes of the shared virtual memory (pages x page size).
   std::uint64_t bytes() const { return std::uint64_t(pages) * page_size; }
   /// The home node of a page among `nodes`, and the page's index there.

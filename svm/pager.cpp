@@ -18,6 +18,7 @@ PagerStats& PagerStats::operator+=(const PagerStats& o) {
   accesses += o.accesses;
   cache_accesses += o.cache_accesses;
   misses += o.misses;
+  for (std::size_t s = 0; s < kSegments; ++s) segment_misses[s] += o.segment_misses[s];
   evictions += o.evictions;
   requests_served += o.requests_served;
   pixels += o.pixels;
@@ -187,6 +188,7 @@ std::uint32_t Pager::fault(std::uint32_t page) {
     throw std::logic_error(fmt::format("{}: page {} is not home and the node has no cache",
                                        nodes::node_name(ctx_.id()), page));
   ++stats_.misses;
+  ++stats_.segment_misses[std::size_t(layout_.segment(page))];
   // The victim: a free cache frame, else the least recently used page (the
   // touches noted so far in this pixel count).
   flush_recency();

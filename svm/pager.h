@@ -63,6 +63,7 @@ struct PagerStats {
   std::uint64_t accesses = 0;        ///< object accesses through the page table
   std::uint64_t cache_accesses = 0;  ///< first accesses in a pixel to pages that are not home (each an LRU update), + refaults
   std::uint64_t misses = 0;          ///< page faults: pages fetched from their home node
+  std::uint64_t segment_misses[kSegments] = {};  ///< misses by the segment of the page (Segment)
   std::uint64_t evictions = 0;       ///< cached pages dropped to make room (LRU)
   std::uint64_t requests_served = 0; ///< other nodes' page requests answered
   std::uint64_t pixels = 0;          ///< pixels begun (begin_pixel)

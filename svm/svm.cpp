@@ -275,11 +275,14 @@ nlohmann::json SvmResult::to_json() const {
     return c.received[std::size_t(nodes::MessageType::kPageReply)].bytes;
   };
   auto node_json = [&](const PagerStats& p, const nodes::NodeCounters& c) {
+    nlohmann::json by_segment;
+    for (std::size_t s = 0; s < kSegments; ++s) by_segment[segment_name(Segment(s))] = p.segment_misses[s];
     return nlohmann::json{{"home_pages", p.home_pages},
                           {"cache_pages", p.cache_pages},
                           {"accesses", p.accesses},
                           {"hits", p.hits()},
                           {"misses", p.misses},
+                          {"misses_by_segment", by_segment},
                           {"miss_ratio", p.miss_ratio()},
                           {"cache_accesses", p.cache_accesses},
                           {"cache_miss_ratio", p.cache_miss_ratio()},

@@ -116,6 +116,16 @@ TEST_CASE("paged database: packed cells (--pack-cells) hold their blocks in the 
       CHECK(l.pack_min == pack);
       CHECK(l.blocks == blocks.blocks.size());
       CHECK(l.pages == l.directory_pages + l.list_pages + l.primitive_pages + l.normals_pages + l.block_pages);
+      // Every page's segment (the faults' breakdown) is the one whose range holds it.
+      std::uint32_t in_segment[kSegments] = {};
+      for (std::uint32_t p = 0; p < l.pages; ++p) ++in_segment[std::size_t(l.segment(p))];
+      CHECK(in_segment[std::size_t(Segment::kDirectory)] == l.directory_pages);
+      CHECK(in_segment[std::size_t(Segment::kLists)] == l.list_pages);
+      CHECK(in_segment[std::size_t(Segment::kPrimitives)] == l.primitive_pages);
+      CHECK(in_segment[std::size_t(Segment::kNormals)] == l.normals_pages);
+      CHECK(in_segment[std::size_t(Segment::kBlocks)] == l.block_pages);
+      CHECK(l.segment(l.block_first) == Segment::kBlocks);
+      CHECK(l.segment(l.block_first - 1) != Segment::kBlocks);
       std::size_t packed = 0, listed = 0, spanning = 0;
       for (std::uint32_t c = 0; c < b.grid.info.cell_count(); ++c) {
         const std::uint32_t n = b.grid.cell_start[c + 1] - b.grid.cell_start[c];

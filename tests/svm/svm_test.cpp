@@ -137,6 +137,17 @@ TEST_CASE("svm: the tracer's page accesses do not depend on node count or cache;
       else CHECK(t.accesses >= accesses);
       CHECK(t.pixel_pages == pixel_pages);
       CHECK(t.misses == t.requests_served);
+      std::uint64_t by_segment = 0;
+      for (std::uint64_t m : t.segment_misses) by_segment += m;
+      CHECK(by_segment == t.misses);
+      if (n == 9) {  // rings: every ray reads cells, lists and spheres
+        CHECK(t.segment_misses[std::size_t(Segment::kDirectory)] > 0);
+        CHECK(t.segment_misses[std::size_t(Segment::kLists)] > 0);
+        CHECK(t.segment_misses[std::size_t(Segment::kPrimitives)] > 0);
+        CHECK(t.segment_misses[std::size_t(Segment::kBlocks)] == 0);  // no packed cells
+      }
+      if (cache == 0)  // each page at most once per node: a segment's faults are at most its pages per node
+        CHECK(t.segment_misses[std::size_t(Segment::kDirectory)] <= std::uint64_t(n - 1) * r.layout.directory_pages);
       const nodes::NodeCounters total = r.run.total();
       CHECK(total.sent[std::size_t(nodes::MessageType::kPageRequest)].messages == t.misses);
       CHECK(total.received[std::size_t(nodes::MessageType::kPageReply)].bytes == t.misses * (128 + 4));
