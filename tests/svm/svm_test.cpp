@@ -60,6 +60,36 @@ TEST_CASE("svm: images are bit-identical to sequential for N in {1,2,3,4,7,16,64
   }
 }
 
+TEST_CASE("svm: with half work grants (--work-grants half) images stay bit-identical to sequential") {
+  for (const auto& [name, size, tessellate] : {std::tuple{"teapot", 2, 0}, std::tuple{"tetra", 3, 0}}) {
+    const testing::BuiltScene b = testing::build_spd(name, size, tessellate);
+    core::RenderParams rp = small_params(1, 0).render;
+    rp.width = rp.height = 40;
+    const core::RenderResult seq = core::render(b.db, b.grid, rp);
+    for (nodes::WorkRequestRoute route : {nodes::WorkRequestRoute::kRing, nodes::WorkRequestRoute::kLastGrantor})
+      for (std::uint32_t n : {3u, 16u, 64u})
+        for (std::uint32_t cache : {1u, 0u}) {
+          CAPTURE(name);
+          CAPTURE(nodes::work_request_route_name(route));
+          CAPTURE(n);
+          CAPTURE(cache);
+          SvmParams p = small_params(n, cache);
+          p.render = rp;
+          p.page_size = 256;
+          p.machine.work_grant = nodes::WorkGrant::kHalf;
+          p.machine.work_request_route = route;
+          const SvmResult r = render_svm(b.db, b.grid, p);
+          CHECK(r.run.work_grants == "half");
+          CHECK(testing::same_bytes(r.render.color, seq.color));
+          CHECK(r.pager_total().pixels == std::uint64_t(rp.width * rp.height));
+          nodes::WorkStats w;
+          for (const nodes::WorkStats& s : r.work) w += s;
+          CHECK(w.pixels == std::uint64_t(rp.width * rp.height));
+          CHECK(w.items_received >= w.grants_given);
+        }
+  }
+}
+
 TEST_CASE("svm --pack-cells: paged triangle blocks give the sequential image for every node count and cache") {
   // 512-byte pages hold one block each, so every packed cell of more than 8
   // triangles is visited in pieces, and a 1-page cache evicts between them.
