@@ -74,18 +74,16 @@ bool WorkPool::take_back_half(Rect& out) {
   if (front_ >= back_) return false;
   const std::uint32_t first_whole_row = (front_ + cols_ - 1) / cols_;  // rows from here on are untouched by the front
   const std::uint32_t whole_rows = back_ % cols_ == 0 ? back_ / cols_ - first_whole_row : 0;
+  const std::uint32_t old_back = back_;
   if (whole_rows >= 2) {
-    const std::uint32_t rows = whole_rows / 2;
-    back_ -= rows * cols_;
-    const Rect first = item(back_), last = item(back_ + rows * cols_ - 1);
-    out = Rect{first.x0, first.y0, last.x1, last.y1};
-    return true;
+    back_ -= whole_rows / 2 * cols_;
+  } else {
+    // The last row's remaining items, contiguous: the back half of them.
+    const std::uint32_t row_start = std::max(front_, (back_ - 1) / cols_ * cols_);
+    back_ -= std::max(1u, (back_ - row_start) / 2);
   }
-  // The last row's remaining items, contiguous: the back half of them.
-  const std::uint32_t row_start = std::max(front_, (back_ - 1) / cols_ * cols_);
-  const std::uint32_t n = std::max(1u, (back_ - row_start) / 2);
-  back_ -= n;
-  const Rect first = item(back_), last = item(back_ + n - 1);
+  // Whole rows, or items of one row: their first and last items span them.
+  const Rect first = item(back_), last = item(old_back - 1);
   out = Rect{first.x0, first.y0, last.x1, last.y1};
   return true;
 }

@@ -94,10 +94,11 @@ struct PageLayout {
 
   /// The shared-virtual-memory address of `page`'s first byte (Pager::at).
   std::uint64_t address(std::uint32_t page) const { return std::uint64_t(page) << page_shift; }
-  /// The segment `page` (< pages) belongs to.
+  /// The segment `page` (< pages) belongs to. (A segment without pages
+  /// starts where the next one does, so no page is found in it.)
   Segment segment(std::uint32_t page) const {
-    if (page >= block_first && block_pages > 0) return Segment::kBlocks;
-    if (page >= normals_first && normals_pages > 0) return Segment::kNormals;
+    if (page >= block_first) return Segment::kBlocks;
+    if (page >= normals_first) return Segment::kNormals;
     if (page >= primitive_first) return Segment::kPrimitives;
     if (page >= list_first) return Segment::kLists;
     return Segment::kDirectory;

@@ -273,14 +273,15 @@ class Pager {
   /// Answers waiting page requests; defers other messages.
   void serve_or_defer(const nodes::Message& m);
 
-  // at()'s fields first, near each other.
-  PagerStats stats_;
+  // at()'s fields first, near each other (the counters last of them, so
+  // that their size does not push the others apart).
   nodes::ArenaArray<PageEntry> table_;
   std::byte* frames_ = nullptr;
   /// Advances at each pixel's start and end, below kEvictedInPixel; 0 = never.
   std::uint32_t pixel_stamp_ = 1;
   std::uint32_t home_end_ = 0;  ///< byte offset of the first cache frame: offsets below it are home pages
   std::uint32_t pixel_pages_ = 0;
+  PagerStats stats_;
   PageLayout layout_;
 
   nodes::NodeContext& ctx_;
