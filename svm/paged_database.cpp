@@ -12,6 +12,7 @@
 #include <string>
 #include <system_error>
 #include <utility>
+#include <vector>
 
 namespace raynode::svm {
 
@@ -43,17 +44,31 @@ std::uint64_t place_runs(std::uint32_t cells, std::uint64_t per_page, Units&& un
   return cursor;
 }
 
-/// The lists segment: every non-empty, unpacked cell's ids; place(cell,
-/// byte address). Returns the segment's used bytes.
+/// Bytes of cell c's run in the lists segment: a header word and its ids
+/// for a cell that lists two primitives or more, a header and a block
+/// address for a packed cell, none for an empty or one-primitive cell
+/// (its directory entry says all).
+std::uint64_t list_run_bytes(const core::Grid& grid, const core::CellBlocks* blocks, std::uint32_t c) {
+  if (is_packed(blocks, c)) return 2 * sizeof(std::uint32_t);
+  const std::uint64_t n = grid.cell_start[c + 1] - grid.cell_start[c];
+  return n < 2 ? 0 : (1 + n) * sizeof(std::uint32_t);
+}
+
+/// The lists segment: every listed or packed cell's run; place(cell, byte
+/// address of its header). Returns the segment's used bytes; throws
+/// std::length_error past the 1 GiB a directory entry can address.
 template <class Place>
 std::uint64_t place_lists(const core::Grid& grid, const core::CellBlocks* blocks, std::uint32_t page_size,
                           Place&& place) {
-  return place_runs(
-      grid.info.cell_count(), page_size,
-      [&](std::uint32_t c) {
-        return is_packed(blocks, c) ? 0 : std::uint64_t(grid.cell_start[c + 1] - grid.cell_start[c]) * 4;
-      },
-      [&] { return fmt::format("svm: the cell lists need more than 4 GiB ({} ids)", grid.references()); }, place);
+  const auto too_many = [&] {
+    return fmt::format("svm: the cell lists need more than {} MiB ({} ids), the most a directory entry addresses",
+                       (std::uint64_t(kMaxEntryValue) + 1) >> 20, grid.references());
+  };
+  const std::uint64_t used = place_runs(
+      grid.info.cell_count(), page_size, [&](std::uint32_t c) { return list_run_bytes(grid, blocks, c); }, too_many,
+      place);
+  if (used > std::uint64_t(kMaxEntryValue) + 1) throw std::length_error(too_many());
+  return used;
 }
 
 /// The blocks segment: every packed cell's blocks, per_page block slots a
@@ -104,10 +119,19 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
     throw std::invalid_argument(fmt::format("page size {} B cannot hold a {}-byte block of packed triangles (use "
                                             "--page-size 512 or more, or --pack-cells off)",
                                             page_size, sizeof(core::TriangleBlock)));
+  if (l.primitives > kMaxEntryValue + 1ull)
+    throw std::length_error(fmt::format("svm: {} primitives, more than the 2^30 ids a directory entry holds",
+                                        l.primitives));
   std::uint64_t listed = 0;
-  for (std::uint32_t c = 0; c < l.cells; ++c)
-    if (!is_packed(blocks, c)) listed += grid.cell_start[c + 1] - grid.cell_start[c];
-    else ++l.packed_cells;
+  for (std::uint32_t c = 0; c < l.cells; ++c) {
+    const std::uint32_t n = grid.cell_start[c + 1] - grid.cell_start[c];
+    if (is_packed(blocks, c)) ++l.packed_cells;
+    else if (n == 1) ++l.single_cells;
+    else if (n > 1) {
+      ++l.listed_cells;
+      listed += n;
+    }
+  }
   l.list_ids = std::uint32_t(listed);
   l.directory_shift = std::uint32_t(std::countr_zero(page_size / std::uint32_t(sizeof(DirectoryEntry))));
   l.primitive_shift = std::uint32_t(std::countr_zero(page_size / std::uint32_t(sizeof(core::Primitive))));
@@ -144,7 +168,8 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
     l.blocks = std::uint32_t(blocks->blocks.size());
   }
   l.pages = std::uint32_t(total);
-  l.object_bytes = std::uint64_t(l.cells) * sizeof(DirectoryEntry) + std::uint64_t(l.list_ids) * sizeof(std::uint32_t) +
+  l.object_bytes = std::uint64_t(l.cells) * sizeof(DirectoryEntry) +
+                   (std::uint64_t(l.listed_cells) + l.list_ids + 2ull * l.packed_cells) * sizeof(std::uint32_t) +
                    std::uint64_t(l.primitives) * sizeof(core::Primitive) +
                    std::uint64_t(l.normal_sets) * sizeof(core::TriangleNormals) +
                    std::uint64_t(l.blocks) * sizeof(core::TriangleBlock);
@@ -164,35 +189,43 @@ PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, s
   std::byte* base = image.pages.data();
   auto at = [&](std::uint32_t page, std::uint32_t offset) { return base + (std::size_t(page) << l.page_shift) + offset; };
 
-  // Directory and lists.
-  std::byte* lists = at(l.list_first, 0);
+  // Packed cells' blocks first: their lists' headers hold the blocks' addresses.
   if (l.blocks == 0) blocks = nullptr;
+  std::vector<std::uint32_t> block_address;  // by cell, packed cells only
+  if (blocks) {
+    block_address.assign(l.cells, 0);
+    place_blocks(*blocks, l.blocks_per_page, [&](std::uint32_t c, std::uint32_t slot) {
+      block_address[c] = l.block_address(slot);
+      for (std::uint32_t k = blocks->start[c]; k < blocks->start[c + 1]; ++k, ++slot)
+        std::memcpy(at(l.block_page(slot), l.block_offset(slot)), &blocks->blocks[k], sizeof(core::TriangleBlock));
+    });
+  }
+  // Directory: every cell's entry; lists: a header and the ids (or the
+  // block address) of every cell that has a run.
+  auto put = [](std::byte* to, std::uint32_t word) { std::memcpy(to, &word, sizeof word); };
+  for (std::uint32_t c = 0; c < l.cells; ++c) {
+    const std::uint32_t begin = grid.cell_start[c], end = grid.cell_start[c + 1];
+    std::byte* entry = at(l.directory_page(c), l.directory_offset(c));
+    if (begin == end) put(entry, kEmptyCell | grid.empty_distance[c]);
+    else if (end - begin == 1 && !is_packed(blocks, c)) put(entry, kSingleCell | grid.cell_primitives[begin]);
+  }
+  std::byte* lists = at(l.list_first, 0);
   place_lists(grid, blocks, page_size, [&](std::uint32_t c, std::uint32_t address) {
     const std::uint32_t begin = grid.cell_start[c], end = grid.cell_start[c + 1];
-    const DirectoryEntry e{end - begin, address};
-    std::memcpy(at(l.directory_page(c), l.directory_offset(c)), &e, sizeof e);
-    std::memcpy(lists + address, grid.cell_primitives.data() + begin, std::size_t(end - begin) * sizeof(std::uint32_t));
-  });
-  // An empty cell's entry holds its empty-space distance in the list field.
-  for (std::uint32_t c = 0; c < l.cells; ++c)
-    if (grid.cell_start[c] == grid.cell_start[c + 1]) {
-      const DirectoryEntry e{0, grid.empty_distance[c]};
-      std::memcpy(at(l.directory_page(c), l.directory_offset(c)), &e, sizeof e);
+    put(at(l.directory_page(c), l.directory_offset(c)), address);
+    if (is_packed(blocks, c)) {
+      put(lists + address, (end - begin) | kPackedCell);
+      put(lists + address + 4, block_address[c]);
+      return;
     }
+    put(lists + address, end - begin);
+    std::memcpy(lists + address + 4, grid.cell_primitives.data() + begin, std::size_t(end - begin) * sizeof(std::uint32_t));
+  });
   // Primitives, then vertex normals.
   for (std::uint32_t id = 0; id < l.primitives; ++id)
     std::memcpy(at(l.primitive_page(id), l.primitive_offset(id)), &db.primitives[id], sizeof(core::Primitive));
   for (std::uint32_t id = 0; id < l.normal_sets; ++id)
     std::memcpy(at(l.normals_page(id), l.normals_offset(id)), &db.vertex_normals[id], sizeof(core::TriangleNormals));
-  // Packed cells: their blocks, and directory entries pointing at them.
-  if (blocks)
-    place_blocks(*blocks, l.blocks_per_page, [&](std::uint32_t c, std::uint32_t slot) {
-      const std::uint32_t count = grid.cell_start[c + 1] - grid.cell_start[c];
-      const DirectoryEntry e{count | kPackedCell, l.block_address(slot)};
-      std::memcpy(at(l.directory_page(c), l.directory_offset(c)), &e, sizeof e);
-      for (std::uint32_t k = blocks->start[c]; k < blocks->start[c + 1]; ++k, ++slot)
-        std::memcpy(at(l.block_page(slot), l.block_offset(slot)), &blocks->blocks[k], sizeof(core::TriangleBlock));
-    });
   return image;
 }
 

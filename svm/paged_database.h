@@ -10,15 +10,19 @@
 //
 // Segments, in page order (each starts on a page boundary; the directory
 // is first, at address 0, which PagedView relies on):
-//   directory  one 8-byte DirectoryEntry per grid cell (the "voxels"):
-//              how many primitives the cell lists and where its list starts
-//              (for an empty cell, its empty-space distance instead, so the
-//              walk's jumps need no other replicated or paged data);
-//   lists      the cells' primitive ids (4 bytes each), packed in cell
-//              order; a list that does not fit in the rest of the current
-//              page but fits in one page starts on a fresh page, a longer
-//              list continues page after page (a chain of per-page pieces,
-//              each an object in one page); packed cells have none;
+//   directory  one 4-byte DirectoryEntry per grid cell (the "voxels"):
+//              an empty cell's empty-space distance (so that the walk's
+//              jumps need no other replicated or paged data), the one
+//              primitive id of a cell that lists one, or else the byte
+//              address of the cell's list;
+//   lists      a header word per listed cell (how many primitives the cell
+//              lists, kPackedCell set for a packed cell) followed by its
+//              primitive ids (4 bytes each) or, for a packed cell, by the
+//              byte address of its first block; cells in cell order. A
+//              list that does not fit in the rest of the current page but
+//              fits in one page starts on a fresh page, a longer list
+//              continues page after page (a chain of per-page pieces, each
+//              an object in one page; the header is in the first);
 //   primitives the 64-byte Primitive records, page_size/64 per page;
 //   normals    the 36-byte TriangleNormals of `pp` triangles,
 //              floor(page_size/36) per page;
@@ -43,19 +47,25 @@
 
 namespace raynode::svm {
 
-/// One grid cell's entry in the paged cell directory.
-struct DirectoryEntry {
-  /// Primitives listed in the cell, with kPackedCell set when the cell is
-  /// packed (its triangles are in the blocks segment).
-  std::uint32_t count = 0;
-  /// count > 0: byte address of the first id in the lists segment, or of a
-  /// packed cell, of its first block in the blocks segment;
-  /// count == 0: the cell's empty-space distance (core::Grid::empty_distance).
-  std::uint32_t list = 0;
-};
-static_assert(sizeof(DirectoryEntry) == 8);
+/// One grid cell's entry in the paged cell directory, a 32-bit word:
+///   kEmptyCell | d    an empty cell; d = its empty-space distance
+///                     (core::Grid::empty_distance);
+///   kSingleCell | id  an unpacked cell that lists one primitive, its id;
+///   a                 else the byte address in the lists segment of the
+///                     cell's list header (a < 2^30).
+/// Four bytes, not a count and an address, put twice the cells in a
+/// directory page: the directory is the database's most shared segment
+/// (every ray that crosses the grid reads it), and a node fetches pages of
+/// it wherever its rays go. A one-primitive cell needs no list access.
+using DirectoryEntry = std::uint32_t;
+inline constexpr std::uint32_t kEmptyCell = 1u << 31;
+inline constexpr std::uint32_t kSingleCell = 1u << 30;
+/// Largest list address and primitive id an entry can hold.
+inline constexpr std::uint32_t kMaxEntryValue = kSingleCell - 1;
 
-/// DirectoryEntry::count's flag of a packed cell.
+/// A list header's flag of a packed cell: the header word is then
+/// count | kPackedCell, and the next word the byte address of the cell's
+/// first block in the blocks segment.
 inline constexpr std::uint32_t kPackedCell = 1u << 31;
 
 /// The segments of the shared virtual memory, in page order.
@@ -87,7 +97,10 @@ struct PageLayout {
   std::uint32_t normals_per_page = 0;  ///< TriangleNormals per page
   std::uint32_t blocks_per_page = 0;   ///< TriangleBlocks per page (block slots)
 
-  std::uint32_t cells = 0, primitives = 0, normal_sets = 0, list_ids = 0;
+  std::uint32_t cells = 0, primitives = 0, normal_sets = 0;
+  std::uint32_t listed_cells = 0;  ///< unpacked cells with a list (two primitives or more)
+  std::uint32_t single_cells = 0;  ///< cells whose one primitive is in the directory entry
+  std::uint32_t list_ids = 0;      ///< primitive ids in the lists segment
   std::uint32_t pack_min = 0;       ///< least triangles of a packed cell; 0 = no packed cell
   std::uint32_t packed_cells = 0, blocks = 0;
   std::uint64_t object_bytes = 0;  ///< bytes of all objects, without the unused tails of pages
@@ -149,8 +162,9 @@ struct PageLayout {
 /// `blocks` (built from the same db and grid) when given. Throws
 /// std::invalid_argument when page_size is not a power of two in
 /// [kMinPageSize, kMaxPageSize] or, with blocks, below one block (320 B),
-/// and std::length_error when the database needs more than 2^32 pages or
-/// its lists more than 4 GiB.
+/// and std::length_error when the database needs more than 2^32 pages, its
+/// lists more than 1 GiB or its primitives more than 2^30 ids (a directory
+/// entry's limits).
 PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, std::uint32_t page_size,
                             const core::CellBlocks* blocks = nullptr);
 

@@ -7,10 +7,11 @@
 // description are replicated on the node.
 //
 // An object is read at its shared-virtual-memory address (Pager::at): its
-// segment's first address plus its place in the segment (a cell's 8-byte
+// segment's first address plus its place in the segment (a cell's 4-byte
 // directory entry, a primitive's 64-byte record, the byte address of a
-// list or a packed cell's first block that the directory entry holds), so
-// that the pager finds page and byte with one shift and one add.
+// list that the directory entry holds, or of a packed cell's first block
+// that its list header holds), so that the pager finds page and byte with
+// one shift and one add.
 //
 // Because the bytes are the host's records, copied page by page, and the
 // traversal and shading code are the same, images are bit-identical to
@@ -79,27 +80,37 @@ class PagedView {
   /// packed(const core::CellBlockSpan&), a page's piece at a time.
   template <class F, class P>
   std::uint32_t visit_cell(std::uint32_t cell, F&& f, P&& packed) const {
-    // The directory is the first segment: a cell's entry lies at cell x 8.
-    const std::byte* entry = pager_->at(std::uint64_t(cell) * sizeof(DirectoryEntry));
-    std::uint32_t count, list;  // a DirectoryEntry's fields, each read as the branches need it
-    std::memcpy(&count, entry + offsetof(DirectoryEntry, count), sizeof count);
-    std::memcpy(&list, entry + offsetof(DirectoryEntry, list), sizeof list);
-    if (count == 0) return list;  // an empty cell's entry holds its empty-space distance
-    const std::uint32_t in_page = layout_.page_size - (list & (layout_.page_size - 1));  // bytes left in the page
+    // The directory is the first segment: a cell's entry lies at cell x 4.
+    DirectoryEntry e;
+    std::memcpy(&e, pager_->at(std::uint64_t(cell) * sizeof(DirectoryEntry)), sizeof e);
+    if (e >= kSingleCell) {
+      if (e & kEmptyCell) return e & ~kEmptyCell;  // an empty cell's empty-space distance
+      f(e & ~kSingleCell);                         // a cell's one primitive
+      return 0;
+    }
+    const std::byte* head = pager_->at(lists_ + e);  // the list's header: count, then ids or a block address
+    std::uint32_t count;
+    std::memcpy(&count, head, sizeof count);
     if (count & kPackedCell) {
       const std::uint32_t triangles = count & ~kPackedCell;
       const std::uint32_t blocks = (triangles + core::kBlockLanes - 1) / core::kBlockLanes;
-      const std::uint64_t address = blocks_ + list;
+      std::uint32_t first;  // the header's second word: a run of 8 bytes never crosses a page
+      std::memcpy(&first, head + sizeof count, sizeof first);
+      const std::uint32_t in_page = layout_.page_size - (first & (layout_.page_size - 1));
+      const std::uint64_t address = blocks_ + first;
       if (blocks * std::uint32_t(sizeof(core::TriangleBlock)) <= in_page) [[likely]]
         packed(core::CellBlockSpan{reinterpret_cast<const core::TriangleBlock*>(pager_->at(address)), blocks, triangles});
       else
         visit_chained_blocks(address, blocks, triangles, packed);
       return 0;
     }
-    std::uint64_t address = lists_ + list;
-    std::uint32_t left = count, n = std::min(left, in_page / std::uint32_t(sizeof(std::uint32_t)));
+    // The ids follow the header; a list longer than the rest of its page
+    // goes on at the next page's first byte.
+    std::uint32_t left = count;
+    std::uint32_t n = std::min(left, (layout_.page_size - (e & (layout_.page_size - 1)) - 4) / 4);
+    const std::uint32_t* ids = reinterpret_cast<const std::uint32_t*>(head + 4);
+    std::uint64_t address = lists_ + e + 4;
     for (;;) {
-      const std::uint32_t* ids = reinterpret_cast<const std::uint32_t*>(pager_->at(address));
       if (pager_->in_cache(ids)) [[unlikely]] {
         // f() may evict this cache page (a one-page cache does): visit a copy.
         std::uint32_t* copy = pager_->list_buffer();
@@ -111,6 +122,7 @@ class PagedView {
       if (left == 0) return 0;
       address += n * sizeof(std::uint32_t);  // the next page's first id
       n = std::min(left, layout_.page_size / std::uint32_t(sizeof(std::uint32_t)));
+      ids = reinterpret_cast<const std::uint32_t*>(pager_->at(address));
     }
   }
   const core::Primitive& primitive(std::uint32_t id) const {

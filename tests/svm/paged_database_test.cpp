@@ -14,28 +14,67 @@ using namespace raynode::svm;
 
 namespace {
 
-/// Reads cell c's list out of the image, checking that every piece lies in
-/// one page of the lists segment.
-std::vector<std::uint32_t> list_of(const PagedImage& im, std::uint32_t c) {
+std::uint32_t word_at(const PagedImage& im, std::uint32_t page, std::uint32_t offset) {
+  std::uint32_t w;
+  std::memcpy(&w, im.page(page).data() + offset, 4);
+  return w;
+}
+
+DirectoryEntry entry_of(const PagedImage& im, std::uint32_t c) {
   const PageLayout& l = im.layout;
-  DirectoryEntry e;
-  std::memcpy(&e, im.page(l.directory_page(c)).data() + l.directory_offset(c), sizeof e);
+  REQUIRE(l.directory_offset(c) + 4 <= l.page_size);
+  return word_at(im, l.directory_page(c), l.directory_offset(c));
+}
+
+/// Cell c as the image holds it: an empty cell's distance, or the ids it
+/// lists (its directory entry's one id, or its list read from the lists
+/// segment, checking that every word lies in a page of the segment); for a
+/// packed cell, its header's count and block address.
+struct CellRecord {
+  bool empty = false, single = false, packed = false;
+  std::uint32_t distance = 0, count = 0, block_address = 0;
+  std::uint32_t first_page = 0, last_page = 0;  // of a list's run, header included
   std::vector<std::uint32_t> ids;
-  std::uint32_t a = e.list;
-  for (std::uint32_t i = 0; i < e.count; ++i, a += 4) {
+};
+
+CellRecord record_of(const PagedImage& im, std::uint32_t c) {
+  const PageLayout& l = im.layout;
+  const DirectoryEntry e = entry_of(im, c);
+  CellRecord r;
+  if (e & kEmptyCell) {
+    r.empty = true;
+    r.distance = e & ~kEmptyCell;
+    return r;
+  }
+  if (e & kSingleCell) {
+    r.single = true;
+    r.ids.push_back(e & ~kSingleCell);
+    return r;
+  }
+  auto word = [&](std::uint32_t a) {
     const std::uint32_t page = l.list_page(a);
     REQUIRE(page >= l.list_first);
     REQUIRE(page < l.list_first + l.list_pages);
-    std::uint32_t id;
-    std::memcpy(&id, im.page(page).data() + l.list_offset(a), 4);
-    ids.push_back(id);
+    r.last_page = page;
+    return word_at(im, page, l.list_offset(a));
+  };
+  r.first_page = l.list_page(e);
+  const std::uint32_t head = word(e);
+  r.count = head & ~kPackedCell;
+  if (head & kPackedCell) {
+    r.packed = true;
+    r.block_address = word(e + 4);
+    REQUIRE(r.last_page == r.first_page);  // a packed cell's header never crosses a page
+    return r;
   }
-  return ids;
+  for (std::uint32_t i = 0; i < r.count; ++i) r.ids.push_back(word(e + 4 + 4 * i));
+  return r;
 }
 
 }  // namespace
 
 TEST_CASE("paged database: every object is found in its page, byte for byte, for page sizes 64 B to 4 KiB") {
+  std::uint32_t seen_empty = 0, seen_single = 0, seen_listed = 0;
   for (auto [name, size] : {std::pair{"teapot", 2}, std::pair{"rings", 1}, std::pair{"balls", 1}}) {
     const testing::BuiltScene b = testing::build_spd(name, size);
     for (std::uint32_t ps : {64u, 128u, 1024u, 4096u}) {
@@ -45,20 +84,35 @@ TEST_CASE("paged database: every object is found in its page, byte for byte, for
       const PageLayout& l = im.layout;
       CHECK(l.pages == l.directory_pages + l.list_pages + l.primitive_pages + l.normals_pages);
       CHECK(im.pages.size() == std::size_t(l.pages) * ps);
-      CHECK(l.object_bytes == b.db.primitives.size() * 64 + b.db.vertex_normals.size() * 36 +
-                                  std::size_t(b.grid.info.cell_count()) * 8 + b.grid.cell_primitives.size() * 4);
-      // Cell lists equal the grid's, in the same order.
+      // Cell lists equal the grid's, in the same order: an empty cell's
+      // entry carries its empty-space distance, a one-primitive cell's its
+      // id, the others' a header and the ids in the lists segment.
+      std::uint32_t empty = 0, single = 0, listed = 0, ids = 0;
       for (std::uint32_t c = 0; c < b.grid.info.cell_count(); ++c) {
         const std::vector<std::uint32_t> expect(b.grid.cell_primitives.begin() + b.grid.cell_start[c],
                                                 b.grid.cell_primitives.begin() + b.grid.cell_start[c + 1]);
-        REQUIRE(list_of(im, c) == expect);
-        if (expect.empty()) {  // the entry carries the cell's empty-space distance instead
-          DirectoryEntry e;
-          std::memcpy(&e, im.page(l.directory_page(c)).data() + l.directory_offset(c), sizeof e);
-          REQUIRE(e.count == 0);
-          REQUIRE(e.list == b.grid.empty_distance[c]);
+        const CellRecord r = record_of(im, c);
+        REQUIRE(!r.packed);
+        REQUIRE(r.ids == expect);
+        REQUIRE(r.empty == expect.empty());
+        REQUIRE(r.single == (expect.size() == 1));
+        if (r.empty) REQUIRE(r.distance == b.grid.empty_distance[c]);
+        empty += r.empty;
+        single += r.single;
+        if (expect.size() > 1) {
+          ++listed;
+          ids += std::uint32_t(expect.size());
         }
       }
+      seen_empty += empty;
+      seen_single += single;
+      seen_listed += listed;
+      CHECK(l.single_cells == single);
+      CHECK(l.listed_cells == listed);
+      CHECK(l.list_ids == ids);
+      CHECK(l.directory_pages == (b.grid.info.cell_count() * 4 + ps - 1) / ps);
+      CHECK(l.object_bytes == b.db.primitives.size() * 64 + b.db.vertex_normals.size() * 36 +
+                                  std::size_t(b.grid.info.cell_count()) * 4 + std::size_t(listed + ids) * 4);
       // Records equal the database's; none crosses a page boundary.
       for (std::uint32_t id = 0; id < b.db.primitives.size(); ++id) {
         REQUIRE(l.primitive_offset(id) + 64 <= ps);
@@ -72,22 +126,23 @@ TEST_CASE("paged database: every object is found in its page, byte for byte, for
       }
     }
   }
+  CHECK(seen_empty > 0);  // every kind of cell is exercised
+  CHECK(seen_single > 0);
+  CHECK(seen_listed > 0);
 }
 
-TEST_CASE("paged database: a list that fits in a page is never split; longer lists run on page after page") {
+TEST_CASE("paged database: a list (header and ids) that fits in a page is never split; longer lists run on page after page") {
   const testing::BuiltScene b = testing::build_spd("teapot", 3);
-  const PagedImage im = build_paged_image(b.db, b.grid, 64);  // 16 ids per page
-  const PageLayout& l = im.layout;
+  const PagedImage im = build_paged_image(b.db, b.grid, 64);  // 16 words per page
   std::size_t long_lists = 0;
   for (std::uint32_t c = 0; c < b.grid.info.cell_count(); ++c) {
-    DirectoryEntry e;
-    std::memcpy(&e, im.page(l.directory_page(c)).data() + l.directory_offset(c), sizeof e);
-    if (e.count == 0) continue;
-    const std::uint32_t first = l.list_page(e.list), last = l.list_page(e.list + 4 * (e.count - 1));
-    if (e.count <= 16) CHECK(first == last);
+    const CellRecord r = record_of(im, c);
+    if (r.empty || r.single) continue;
+    const std::uint32_t words = 1 + r.count;  // the header and the ids
+    if (words <= 16) CHECK(r.first_page == r.last_page);
     else {
       ++long_lists;
-      CHECK(last - first + 1 <= (e.count + 15) / 16 + 1);
+      CHECK(r.last_page - r.first_page + 1 <= (words + 15) / 16 + 1);
     }
   }
   CHECK(long_lists > 0);  // the case is exercised
@@ -126,25 +181,27 @@ TEST_CASE("paged database: packed cells (--pack-cells) hold their blocks in the 
       CHECK(in_segment[std::size_t(Segment::kBlocks)] == l.block_pages);
       CHECK(l.segment(l.block_first) == Segment::kBlocks);
       CHECK(l.segment(l.block_first - 1) != Segment::kBlocks);
-      std::size_t packed = 0, listed = 0, spanning = 0;
+      std::size_t packed = 0, listed = 0, listed_cells = 0, spanning = 0;
       for (std::uint32_t c = 0; c < b.grid.info.cell_count(); ++c) {
         const std::uint32_t n = b.grid.cell_start[c + 1] - b.grid.cell_start[c];
         const std::uint32_t k0 = blocks.start[c], k1 = blocks.start[c + 1];
-        DirectoryEntry e;
-        std::memcpy(&e, im.page(l.directory_page(c)).data() + l.directory_offset(c), sizeof e);
+        const CellRecord r = record_of(im, c);
         if (k0 == k1) {  // unpacked: the list as before
-          REQUIRE((e.count & kPackedCell) == 0);
-          REQUIRE(e.count == n);
-          if (n > 0) REQUIRE(list_of(im, c).size() == n);
-          listed += n;
+          REQUIRE(!r.packed);
+          REQUIRE(r.ids.size() == n);
+          if (n > 1) {
+            listed += n;
+            ++listed_cells;
+          }
           continue;
         }
         ++packed;
-        REQUIRE(e.count == (n | kPackedCell));
-        const std::uint32_t slot0 = l.block_slot(e.list);
-        REQUIRE(l.block_address(slot0) == e.list);
-        REQUIRE(l.block_address_page(e.list) == l.block_page(slot0));
-        REQUIRE(l.block_address_offset(e.list) == l.block_offset(slot0));
+        REQUIRE(r.packed);
+        REQUIRE(r.count == n);
+        const std::uint32_t slot0 = l.block_slot(r.block_address);
+        REQUIRE(l.block_address(slot0) == r.block_address);
+        REQUIRE(l.block_address_page(r.block_address) == l.block_page(slot0));
+        REQUIRE(l.block_address_offset(r.block_address) == l.block_offset(slot0));
         const std::uint32_t first = l.block_page(slot0), last = l.block_page(slot0 + (k1 - k0) - 1);
         if (k1 - k0 <= per_page) REQUIRE(first == last);  // a cell that fits in a page stays in one
         else ++spanning;
@@ -157,9 +214,11 @@ TEST_CASE("paged database: packed cells (--pack-cells) hold their blocks in the 
       }
       CHECK(l.packed_cells == packed);
       CHECK(l.list_ids == listed);
+      CHECK(l.listed_cells == listed_cells);
       CHECK(listed < b.grid.cell_primitives.size());  // packed cells keep no list
       CHECK(l.object_bytes == b.db.primitives.size() * 64 + b.db.vertex_normals.size() * 36 +
-                                  std::size_t(b.grid.info.cell_count()) * 8 + listed * 4 + blocks.blocks.size() * 320);
+                                  std::size_t(b.grid.info.cell_count()) * 4 + (listed_cells + listed + 2 * packed) * 4 +
+                                  blocks.blocks.size() * 320);
       if (ps == 512) CHECK(spanning > 0);  // the chained case is exercised
     }
   // A page smaller than a block cannot hold one.

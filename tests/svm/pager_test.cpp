@@ -293,14 +293,24 @@ TEST_CASE("paged view: for_each_in_cell lists every cell, packed or not, while f
   // f() reads each primitive, so with one cache frame every remote read
   // evicts the frame that held the cell's list piece or blocks.
   const testing::BuiltScene b = testing::build_spd("teapot", 2);
-  // 512-byte pages: one block a page, cells chained over pages; 1024: pieces of up to 3 blocks.
-  for (const auto& [ps, pack] : {std::pair{512u, 0u}, std::pair{512u, 1u}, std::pair{512u, 3u},
+  // 512-byte pages: one block a page, cells chained over pages; 1024: pieces of up to 3 blocks;
+  // 64: lists of 16 words a page, some with the header alone in its page's last word.
+  for (const auto& [ps, pack] : {std::pair{64u, 0u}, std::pair{512u, 0u}, std::pair{512u, 1u}, std::pair{512u, 3u},
                                  std::pair{1024u, 0u}, std::pair{1024u, 1u}, std::pair{1024u, 3u}}) {
     CAPTURE(ps);
     CAPTURE(pack);
     const core::CellBlocks blocks = pack ? core::build_cell_blocks(b.db, b.grid, pack) : core::CellBlocks{};
     const PagedImage image = build_paged_image(b.db, b.grid, ps, pack ? &blocks : nullptr);
     if (pack) REQUIRE(image.layout.blocks > 0);
+    if (ps == 64) {  // a header in its page's last word: the ids start on the next page
+      std::uint32_t alone = 0;
+      for (std::uint32_t c = 0; c < b.grid.info.cell_count(); ++c) {
+        DirectoryEntry e;
+        std::memcpy(&e, image.page(image.layout.directory_page(c)).data() + image.layout.directory_offset(c), 4);
+        alone += e < kSingleCell && (e & (ps - 1)) == ps - 4;
+      }
+      CHECK(alone > 0);
+    }
     with_two_nodes(image, 1, [&](Pager& pager, nodes::NodeContext&) {
       const PagedView view(pager, b.grid.info, b.db.materials);
       for (std::uint32_t c = 0; c < b.grid.info.cell_count(); ++c) {
