@@ -150,8 +150,8 @@ void NodeContext::release_run() {
   if (id_ != kHost) machine_->scheduler->release(id_);
 }
 
-void NodeContext::await_reply() {
-  if (id_ != kHost && machine_->scheduler->enabled()) machine_->scheduler->await_reply(id_, now());
+void NodeContext::await_reply(Awaited what) {
+  if (id_ != kHost && machine_->scheduler->enabled()) machine_->scheduler->await_reply(id_, now(), what);
 }
 
 void NodeContext::wait_for_mail(double timeout_s) {

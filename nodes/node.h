@@ -42,6 +42,7 @@
 #include "nodes/mailbox.h"
 #include "nodes/message.h"
 #include "nodes/network.h"
+#include "nodes/scheduler.h"
 #include "nodes/topology.h"
 
 namespace raynode::nodes {
@@ -205,10 +206,10 @@ class NodeContext {
   /// Gives up the run permit (receive() does so itself before blocking).
   void release_run();
   /// Gives up the run permit to block for the reply to this node's own
-  /// request (a work grant, a page): until it runs again its clock holds
-  /// the others back (scheduler.h). The caller must keep serving its mail
-  /// while it waits.
-  void await_reply();
+  /// request (a page; Awaited::kWork: a work grant or its request's
+  /// return): until it runs again its clock holds the others back
+  /// (scheduler.h). The caller must keep serving its mail while it waits.
+  void await_reply(Awaited what = Awaited::kReply);
   /// Bounds how many incoming messages a blocked send() parks in the arena
   /// (default: no bound). Only for a node whose blocking sends all go to
   /// a consumer that never blocks on it (dataflow: only to the host): a

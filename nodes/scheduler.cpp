@@ -2,6 +2,7 @@
 
 #include <fmt/core.h>
 
+#include <algorithm>
 #include <limits>
 
 namespace raynode::nodes {
@@ -16,6 +17,7 @@ Scheduler::Scheduler(std::uint32_t nodes, std::uint32_t permits, double window,
       state_(nodes, kActiveWaiting),
       clock_(nodes, 0.0),
       resuming_(nodes, 0),
+      awaits_work_(nodes, 0),
       mail_pending_(nodes, 0),
       retired_(nodes, 0),
       granted_(new std::atomic<bool>[nodes]),
@@ -26,11 +28,14 @@ Scheduler::Scheduler(std::uint32_t nodes, std::uint32_t permits, double window,
   }
 }
 
-double Scheduler::min_active_clock() const {
-  double m = std::numeric_limits<double>::infinity();
-  for (std::size_t j = 0; j < state_.size(); ++j)
-    if (state_[j] != kInactive && clock_[j] < m) m = clock_[j];
-  return m;
+double Scheduler::clock_limit() const {
+  double active = std::numeric_limits<double>::infinity(), work = active;
+  for (std::size_t j = 0; j < state_.size(); ++j) {
+    if (state_[j] == kInactive) continue;
+    active = std::min(active, clock_[j]);
+    if (state_[j] == kAwaiting && awaits_work_[j]) work = std::min(work, clock_[j]);
+  }
+  return std::min(active + window_, work);
 }
 
 void Scheduler::grant(std::uint32_t node, bool compute, std::vector<std::uint32_t>& wake) {
@@ -53,7 +58,7 @@ void Scheduler::grant(std::uint32_t node, bool compute, std::vector<std::uint32_
 }
 
 void Scheduler::grant_eligible(std::vector<std::uint32_t>& wake) {
-  const double limit = min_active_clock() + window_;
+  const double limit = clock_limit();
   const std::size_t n = state_.size();
   while (free_permits_ > 0) {
     // 1. A node resuming inside its work unit, whatever its clock. 2. Mail
@@ -158,8 +163,8 @@ bool Scheduler::yield_point(std::uint32_t node, double clock) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (state_[node] != kRunning) return false;
     clock_[node] = clock;
-    if (clock > min_active_clock() + window_) {
-      // Too far ahead of someone active: give the permit back and queue.
+    if (clock > clock_limit()) {
+      // Too far ahead of someone active or awaiting work: give the permit back and queue.
       take_permit_back(node);
       state_[node] = kActiveWaiting;
       ++handoffs_;
@@ -181,7 +186,8 @@ std::string Scheduler::describe() {
     n_serving += serving_[j].load(std::memory_order_relaxed);
     if (state_[j] == kRunning && n_running++ < 8) running += fmt::format(" {}@{:.6g}", j, clock_[j]);
     if (state_[j] == kActiveWaiting && n_queued++ < 8) queued += fmt::format(" {}@{:.6g}", j, clock_[j]);
-    if (state_[j] == kAwaiting && n_awaiting++ < 8) awaiting += fmt::format(" {}@{:.6g}", j, clock_[j]);
+    if (state_[j] == kAwaiting && n_awaiting++ < 8)
+      awaiting += fmt::format(" {}@{:.6g}{}", j, clock_[j], awaits_work_[j] ? " (work)" : "");
   }
   return fmt::format("scheduler: {} free permits, {} running [{} ], {} queued [{} ], {} awaiting a reply [{} ], "
                      "{} serving mail, {} with mail waiting for service, window {:.3g} s",
@@ -189,7 +195,7 @@ std::string Scheduler::describe() {
                      mail_count_, window_);
 }
 
-void Scheduler::await_reply(std::uint32_t node, double clock) {
+void Scheduler::await_reply(std::uint32_t node, double clock, Awaited what) {
   if (!enabled_) return;
   std::vector<std::uint32_t> wake;
   {
@@ -197,6 +203,7 @@ void Scheduler::await_reply(std::uint32_t node, double clock) {
     take_permit_back(node);
     clear_mail(node);
     state_[node] = kAwaiting;
+    awaits_work_[node] = what == Awaited::kWork;
     clock_[node] = clock;
     grant_eligible(wake);
   }

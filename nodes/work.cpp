@@ -271,7 +271,7 @@ WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_
     while (true) {
       if (!ctx.poll(m)) {
         if (!released) {
-          ctx.await_reply();  // blocked: let a waiting node compute, but not run ahead of us
+          ctx.await_reply(Awaited::kWork);  // blocked: let a node behind us compute, none past our clock
           released = true;
         }
         ctx.wait_for_mail(0);

@@ -79,6 +79,26 @@ TEST_CASE("scheduler: a node awaiting a reply holds the others back; resuming in
   CHECK(std::find(woken.begin(), woken.end(), 1u) != woken.end());
 }
 
+TEST_CASE("scheduler: a node awaiting work holds the others at its clock, a node awaiting a page by the window") {
+  std::vector<std::uint32_t> woken;
+  Scheduler s(3, 2, 0.1, [&](std::uint32_t n) { woken.push_back(n); });
+  CHECK(s.try_run(0, 0.0));
+  CHECK(s.try_run(1, 0.0));
+  s.release(2);
+  s.await_reply(0, 0.2, Awaited::kWork);  // node 0 asked for work at 0.2
+  CHECK(s.yield_point(1, 0.2));           // up to its clock, node 1 computes on
+  CHECK_FALSE(s.yield_point(1, 0.25));    // within the window, but past a node awaiting work
+  CHECK_FALSE(s.try_run(2, 0.21));
+  CHECK(s.describe().find("(work)") != std::string::npos);
+  woken.clear();
+  CHECK(s.try_run(0, 0.22));  // the grant came: node 0 runs again (lowest clock)
+  s.await_reply(0, 0.22);     // now it awaits a page: the others may run a window ahead
+  CHECK(std::find(woken.begin(), woken.end(), 1u) != woken.end());  // node 1 (0.25) may run again
+  CHECK(s.try_run(1, 0.25));
+  CHECK(s.try_run(2, 0.3));
+  CHECK_FALSE(s.yield_point(2, 0.33));  // past 0.22 + 0.1
+}
+
 TEST_CASE("scheduler: a sleeping node's mail gets a service permit before queued compute, and gives it back") {
   std::vector<std::uint32_t> woken;
   Scheduler s(4, 1, 0.1, [&](std::uint32_t n) { woken.push_back(n); }, true);
