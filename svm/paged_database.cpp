@@ -12,7 +12,6 @@
 #include <string>
 #include <system_error>
 #include <utility>
-#include <vector>
 
 namespace raynode::svm {
 
@@ -45,17 +44,16 @@ std::uint64_t place_runs(std::uint32_t cells, std::uint64_t per_page, Units&& un
 }
 
 /// Bytes of cell c's run in the lists segment: a header word and its ids
-/// for a cell that lists two primitives or more, a header and a block
-/// address for a packed cell, none for an empty or one-primitive cell
-/// (its directory entry says all).
+/// for an unpacked cell that lists two primitives or more, none for an
+/// empty, one-primitive or packed cell.
 std::uint64_t list_run_bytes(const core::Grid& grid, const core::CellBlocks* blocks, std::uint32_t c) {
-  if (is_packed(blocks, c)) return 2 * sizeof(std::uint32_t);
+  if (is_packed(blocks, c)) return 0;
   const std::uint64_t n = grid.cell_start[c + 1] - grid.cell_start[c];
   return n < 2 ? 0 : (1 + n) * sizeof(std::uint32_t);
 }
 
-/// The lists segment: every listed or packed cell's run; place(cell, byte
-/// address of its header). Returns the segment's used bytes; throws
+/// The lists segment: every listed cell's run; place(cell, byte address of
+/// its header). Returns the segment's used bytes; throws
 /// std::length_error past the 1 GiB a directory entry can address.
 template <class Place>
 std::uint64_t place_lists(const core::Grid& grid, const core::CellBlocks* blocks, std::uint32_t page_size,
@@ -71,14 +69,33 @@ std::uint64_t place_lists(const core::Grid& grid, const core::CellBlocks* blocks
   return used;
 }
 
-/// The blocks segment: every packed cell's blocks, per_page block slots a
-/// page; place(cell, first slot). Returns the slots used.
+/// The blocks segment: every packed cell's run (header and blocks, the
+/// file comment's rule); place(cell, byte address of its header). Returns
+/// the segment's used bytes; throws std::length_error past the 1 GiB a
+/// directory entry can address.
 template <class Place>
-std::uint64_t place_blocks(const core::CellBlocks& blocks, std::uint32_t per_page, Place&& place) {
-  return place_runs(
-      std::uint32_t(blocks.start.size() - 1), per_page,
-      [&](std::uint32_t c) { return std::uint64_t(blocks.start[c + 1] - blocks.start[c]); },
-      [] { return std::string("svm: the packed cells need more than 2^32 block slots"); }, place);
+std::uint64_t place_packed(const core::CellBlocks& blocks, std::uint32_t page_size, Place&& place) {
+  const std::uint64_t block = sizeof(core::TriangleBlock), per_page = page_size / block;
+  std::uint64_t cursor = 0;
+  for (std::uint32_t c = 0; c + 1 < blocks.start.size(); ++c) {
+    const std::uint64_t n = blocks.start[c + 1] - blocks.start[c];
+    if (n == 0) continue;
+    const std::uint64_t bytes = kPackedHeaderBytes + n * block, in_page = cursor % page_size;
+    if (in_page != 0 && bytes > page_size - in_page) cursor += page_size - in_page;  // a fresh page
+    if (cursor > kMaxEntryValue)
+      throw std::length_error(fmt::format("svm: the packed cells need more than {} MiB ({} blocks), the most a "
+                                          "directory entry addresses",
+                                          (std::uint64_t(kMaxEntryValue) + 1) >> 20, blocks.blocks.size()));
+    place(c, std::uint32_t(cursor));
+    if (bytes <= page_size) {
+      cursor += bytes;
+      continue;
+    }
+    // Longer than a page: whole blocks after the header, then per_page a page.
+    const std::uint64_t rest = n - (page_size - kPackedHeaderBytes) / block;
+    cursor += page_size + (rest / per_page) * page_size + (rest % per_page) * block;
+  }
+  return cursor;
 }
 
 std::uint32_t pages_for(std::uint64_t bytes, std::uint32_t page_size) {
@@ -115,10 +132,10 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
     throw std::invalid_argument(fmt::format("svm: the packed cells are for {} cells, the grid has {}",
                                             blocks->start.size() - 1, l.cells));
   if (blocks && blocks->blocks.empty()) blocks = nullptr;  // nothing packed: the paper's layout
-  if (blocks && l.blocks_per_page == 0)
-    throw std::invalid_argument(fmt::format("page size {} B cannot hold a {}-byte block of packed triangles (use "
-                                            "--page-size 512 or more, or --pack-cells off)",
-                                            page_size, sizeof(core::TriangleBlock)));
+  if (blocks && page_size < kPackedHeaderBytes + sizeof(core::TriangleBlock))
+    throw std::invalid_argument(fmt::format("page size {} B cannot hold a {}-byte block of packed triangles and its "
+                                            "cell's {}-byte header (use --page-size 512 or more, or --pack-cells off)",
+                                            page_size, sizeof(core::TriangleBlock), kPackedHeaderBytes));
   if (l.primitives > kMaxEntryValue + 1ull)
     throw std::length_error(fmt::format("svm: {} primitives, more than the 2^30 ids a directory entry holds",
                                         l.primitives));
@@ -138,11 +155,10 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
   l.normals_per_page = page_size / std::uint32_t(sizeof(core::TriangleNormals));
 
   const std::uint64_t list_bytes = place_lists(grid, blocks, page_size, [](std::uint32_t, std::uint32_t) {});
-  const std::uint64_t block_slots =
-      blocks ? place_blocks(*blocks, l.blocks_per_page, [](std::uint32_t, std::uint32_t) {}) : 0;
-  const std::uint64_t block_pages = blocks ? (block_slots + l.blocks_per_page - 1) / l.blocks_per_page : 0;
-  if (block_pages * page_size > 0xffffffffull)  // directory entries hold 32-bit block addresses
+  const std::uint64_t block_bytes = blocks ? place_packed(*blocks, page_size, [](std::uint32_t, std::uint32_t) {}) : 0;
+  if (block_bytes > 0xffffffffull)  // the blocks' byte addresses are 32-bit
     throw std::length_error(fmt::format("svm: the packed cells need more than 4 GiB ({} blocks)", blocks->blocks.size()));
+  const std::uint64_t block_pages = pages_for(block_bytes, page_size);
   const std::uint64_t dir_pages = (std::uint64_t(l.cells) + (1u << l.directory_shift) - 1) >> l.directory_shift;
   const std::uint64_t list_pages = pages_for(list_bytes, page_size);
   const std::uint64_t prim_pages = (std::uint64_t(l.primitives) + (1u << l.primitive_shift) - 1) >> l.primitive_shift;
@@ -169,7 +185,8 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
   }
   l.pages = std::uint32_t(total);
   l.object_bytes = std::uint64_t(l.cells) * sizeof(DirectoryEntry) +
-                   (std::uint64_t(l.listed_cells) + l.list_ids + 2ull * l.packed_cells) * sizeof(std::uint32_t) +
+                   (std::uint64_t(l.listed_cells) + l.list_ids) * sizeof(std::uint32_t) +
+                   std::uint64_t(l.packed_cells) * kPackedHeaderBytes +
                    std::uint64_t(l.primitives) * sizeof(core::Primitive) +
                    std::uint64_t(l.normal_sets) * sizeof(core::TriangleNormals) +
                    std::uint64_t(l.blocks) * sizeof(core::TriangleBlock);
@@ -189,38 +206,34 @@ PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, s
   std::byte* base = image.pages.data();
   auto at = [&](std::uint32_t page, std::uint32_t offset) { return base + (std::size_t(page) << l.page_shift) + offset; };
 
-  // Packed cells' blocks first: their lists' headers hold the blocks' addresses.
+  // Directory: every cell's entry; lists: a header and the ids of every
+  // cell that has a list; blocks: a header and the blocks of every packed
+  // cell.
   if (l.blocks == 0) blocks = nullptr;
-  std::vector<std::uint32_t> block_address;  // by cell, packed cells only
-  if (blocks) {
-    block_address.assign(l.cells, 0);
-    place_blocks(*blocks, l.blocks_per_page, [&](std::uint32_t c, std::uint32_t slot) {
-      block_address[c] = l.block_address(slot);
-      for (std::uint32_t k = blocks->start[c]; k < blocks->start[c + 1]; ++k, ++slot)
-        std::memcpy(at(l.block_page(slot), l.block_offset(slot)), &blocks->blocks[k], sizeof(core::TriangleBlock));
-    });
-  }
-  // Directory: every cell's entry; lists: a header and the ids (or the
-  // block address) of every cell that has a run.
   auto put = [](std::byte* to, std::uint32_t word) { std::memcpy(to, &word, sizeof word); };
+  auto entry = [&](std::uint32_t c) { return at(l.directory_page(c), l.directory_offset(c)); };
   for (std::uint32_t c = 0; c < l.cells; ++c) {
     const std::uint32_t begin = grid.cell_start[c], end = grid.cell_start[c + 1];
-    std::byte* entry = at(l.directory_page(c), l.directory_offset(c));
-    if (begin == end) put(entry, kEmptyCell | grid.empty_distance[c]);
-    else if (end - begin == 1 && !is_packed(blocks, c)) put(entry, kSingleCell | grid.cell_primitives[begin]);
+    if (begin == end) put(entry(c), kEmptyCell | grid.empty_distance[c]);
+    else if (end - begin == 1 && !is_packed(blocks, c)) put(entry(c), kSingleCell | grid.cell_primitives[begin]);
   }
   std::byte* lists = at(l.list_first, 0);
   place_lists(grid, blocks, page_size, [&](std::uint32_t c, std::uint32_t address) {
     const std::uint32_t begin = grid.cell_start[c], end = grid.cell_start[c + 1];
-    put(at(l.directory_page(c), l.directory_offset(c)), address);
-    if (is_packed(blocks, c)) {
-      put(lists + address, (end - begin) | kPackedCell);
-      put(lists + address + 4, block_address[c]);
-      return;
-    }
+    put(entry(c), address);
     put(lists + address, end - begin);
     std::memcpy(lists + address + 4, grid.cell_primitives.data() + begin, std::size_t(end - begin) * sizeof(std::uint32_t));
   });
+  if (blocks) {
+    std::byte* runs = at(l.block_first, 0);
+    place_packed(*blocks, page_size, [&](std::uint32_t c, std::uint32_t header) {
+      put(entry(c), kPackedCell | header);
+      put(runs + header, grid.cell_start[c + 1] - grid.cell_start[c]);  // the rest of the header stays zero
+      for (std::uint32_t k = blocks->start[c]; k < blocks->start[c + 1]; ++k)
+        std::memcpy(runs + l.packed_block_address(header, k - blocks->start[c]), &blocks->blocks[k],
+                    sizeof(core::TriangleBlock));
+    });
+  }
   // Primitives, then vertex normals.
   for (std::uint32_t id = 0; id < l.primitives; ++id)
     std::memcpy(at(l.primitive_page(id), l.primitive_offset(id)), &db.primitives[id], sizeof(core::Primitive));

@@ -13,26 +13,30 @@
 //   directory  one 4-byte DirectoryEntry per grid cell (the "voxels"):
 //              an empty cell's empty-space distance (so that the walk's
 //              jumps need no other replicated or paged data), the one
-//              primitive id of a cell that lists one, or else the byte
-//              address of the cell's list;
-//   lists      a header word per listed cell (how many primitives the cell
-//              lists, kPackedCell set for a packed cell) followed by its
-//              primitive ids (4 bytes each) or, for a packed cell, by the
-//              byte address of its first block; cells in cell order. A
-//              list that does not fit in the rest of the current page but
-//              fits in one page starts on a fresh page, a longer list
-//              continues page after page (a chain of per-page pieces, each
-//              an object in one page; the header is in the first);
+//              primitive id of an unpacked cell that lists one, or else
+//              the byte address of the cell's list, or of a packed cell's
+//              run of blocks;
+//   lists      for each unpacked cell that lists two primitives or more, a
+//              header word (how many) followed by the primitive ids (4
+//              bytes each), cells in cell order. A list that does not fit
+//              in the rest of the current page but fits in one page starts
+//              on a fresh page, a longer list continues page after page (a
+//              chain of per-page pieces, each an object in one page; the
+//              header is in the first);
 //   primitives the 64-byte Primitive records, page_size/64 per page;
 //   normals    the 36-byte TriangleNormals of `pp` triangles,
 //              floor(page_size/36) per page;
 //   blocks     only with --pack-cells N (off by default, as in the paper):
-//              the 320-byte core::TriangleBlocks of the packed cells
-//              (core/cell_blocks.h), floor(page_size/320) per page, a
-//              cell's blocks in one page when they fit in one (as lists),
-//              else continued page after page. A packed cell's directory
-//              entry points at its blocks instead of a list, and the
-//              tracer tests them a block at a time (same hits).
+//              each packed cell's run, a 32-byte header (its triangle
+//              count, then zeros) and its 320-byte core::TriangleBlocks
+//              (core/cell_blocks.h), cells in cell order; a run that fits
+//              in the rest of the current page goes there, any other
+//              starts on a fresh page, and one longer than a page goes on
+//              at the next page's first byte with as many whole blocks as
+//              each page holds (PageLayout::packed_block_address). The
+//              tracer tests them a block at a time (same hits); the header
+//              lies in the page of the cell's first blocks, so one page
+//              access finds count and blocks.
 // Only O(1) metadata is replicated on every node instead: GridInfo,
 // materials, lights, camera, background, and this layout.
 #pragma once
@@ -47,26 +51,27 @@
 
 namespace raynode::svm {
 
-/// One grid cell's entry in the paged cell directory, a 32-bit word:
+/// One grid cell's entry in the paged cell directory, a 32-bit word whose
+/// top two bits say what the other 30 (its value) are:
 ///   kEmptyCell | d    an empty cell; d = its empty-space distance
 ///                     (core::Grid::empty_distance);
 ///   kSingleCell | id  an unpacked cell that lists one primitive, its id;
-///   a                 else the byte address in the lists segment of the
-///                     cell's list header (a < 2^30).
+///   kPackedCell | a   a packed cell; a = the byte address of its run's
+///                     header in the blocks segment;
+///   a                 else the byte address of the cell's list header in
+///                     the lists segment.
 /// Four bytes, not a count and an address, put twice the cells in a
 /// directory page: the directory is the database's most shared segment
 /// (every ray that crosses the grid reads it), and a node fetches pages of
 /// it wherever its rays go. A one-primitive cell needs no list access.
 using DirectoryEntry = std::uint32_t;
-inline constexpr std::uint32_t kEmptyCell = 1u << 31;
 inline constexpr std::uint32_t kSingleCell = 1u << 30;
-/// Largest list address and primitive id an entry can hold.
+inline constexpr std::uint32_t kPackedCell = 2u << 30;
+inline constexpr std::uint32_t kEmptyCell = 3u << 30;
+/// Largest list or run address and primitive id an entry can hold.
 inline constexpr std::uint32_t kMaxEntryValue = kSingleCell - 1;
-
-/// A list header's flag of a packed cell: the header word is then
-/// count | kPackedCell, and the next word the byte address of the cell's
-/// first block in the blocks segment.
-inline constexpr std::uint32_t kPackedCell = 1u << 31;
+/// Bytes of a packed cell's run header (keeps its blocks 32-byte aligned).
+inline constexpr std::uint32_t kPackedHeaderBytes = 32;
 
 /// The segments of the shared virtual memory, in page order.
 enum class Segment : std::uint8_t { kDirectory, kLists, kPrimitives, kNormals, kBlocks };
@@ -95,7 +100,7 @@ struct PageLayout {
   std::uint32_t directory_shift = 0;   ///< log2(directory entries per page)
   std::uint32_t primitive_shift = 0;   ///< log2(primitives per page)
   std::uint32_t normals_per_page = 0;  ///< TriangleNormals per page
-  std::uint32_t blocks_per_page = 0;   ///< TriangleBlocks per page (block slots)
+  std::uint32_t blocks_per_page = 0;   ///< TriangleBlocks per page (a long run's pages after its first)
 
   std::uint32_t cells = 0, primitives = 0, normal_sets = 0;
   std::uint32_t listed_cells = 0;  ///< unpacked cells with a list (two primitives or more)
@@ -140,19 +145,17 @@ struct PageLayout {
   }
   std::uint32_t list_page(std::uint32_t address) const { return list_first + (address >> page_shift); }
   std::uint32_t list_offset(std::uint32_t address) const { return address & (page_size - 1); }
-  /// Block slots (the host's numbering, blocks_per_page a page) and the
-  /// byte addresses in the blocks segment that directory entries hold (no
-  /// division to find a block's page and offset).
-  std::uint32_t block_page(std::uint32_t slot) const { return block_first + slot / blocks_per_page; }
-  std::uint32_t block_offset(std::uint32_t slot) const {
-    return (slot % blocks_per_page) * std::uint32_t(sizeof(core::TriangleBlock));
-  }
-  std::uint32_t block_address(std::uint32_t slot) const {
-    return (slot / blocks_per_page) * page_size + block_offset(slot);
-  }
-  std::uint32_t block_slot(std::uint32_t address) const {
-    return (address >> page_shift) * blocks_per_page +
-           (address & (page_size - 1)) / std::uint32_t(sizeof(core::TriangleBlock));
+  /// The byte address in the blocks segment of block k of the packed run
+  /// whose header is at `header`: in the header's page while whole blocks
+  /// fit after it, then blocks_per_page blocks a page from each page's
+  /// first byte.
+  std::uint32_t packed_block_address(std::uint32_t header, std::uint32_t k) const {
+    const std::uint32_t block = sizeof(core::TriangleBlock);
+    const std::uint32_t first = (page_size - (header & (page_size - 1)) - kPackedHeaderBytes) / block;
+    if (k < first) return header + kPackedHeaderBytes + k * block;
+    k -= first;
+    const std::uint32_t page = (header >> page_shift) + 1 + k / blocks_per_page;
+    return (page << page_shift) + (k % blocks_per_page) * block;
   }
   std::uint32_t block_address_page(std::uint32_t address) const { return block_first + (address >> page_shift); }
   std::uint32_t block_address_offset(std::uint32_t address) const { return address & (page_size - 1); }
@@ -161,10 +164,10 @@ struct PageLayout {
 /// Builds the layout for a database and grid, with the packed cells of
 /// `blocks` (built from the same db and grid) when given. Throws
 /// std::invalid_argument when page_size is not a power of two in
-/// [kMinPageSize, kMaxPageSize] or, with blocks, below one block (320 B),
-/// and std::length_error when the database needs more than 2^32 pages, its
-/// lists more than 1 GiB or its primitives more than 2^30 ids (a directory
-/// entry's limits).
+/// [kMinPageSize, kMaxPageSize] or, with blocks, below a run header and a
+/// block (352 B), and std::length_error when the database needs more than
+/// 2^32 pages, its lists or packed runs more than 1 GiB or its primitives
+/// more than 2^30 ids (a directory entry's limits).
 PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, std::uint32_t page_size,
                             const core::CellBlocks* blocks = nullptr);
 

@@ -9,9 +9,8 @@
 // An object is read at its shared-virtual-memory address (Pager::at): its
 // segment's first address plus its place in the segment (a cell's 4-byte
 // directory entry, a primitive's 64-byte record, the byte address of a
-// list that the directory entry holds, or of a packed cell's first block
-// that its list header holds), so that the pager finds page and byte with
-// one shift and one add.
+// list or of a packed cell's run that the directory entry holds), so that
+// the pager finds page and byte with one shift and one add.
 //
 // Because the bytes are the host's records, copied page by page, and the
 // traversal and shading code are the same, images are bit-identical to
@@ -84,26 +83,28 @@ class PagedView {
     DirectoryEntry e;
     std::memcpy(&e, pager_->at(std::uint64_t(cell) * sizeof(DirectoryEntry)), sizeof e);
     if (e >= kSingleCell) {
-      if (e & kEmptyCell) return e & ~kEmptyCell;  // an empty cell's empty-space distance
-      f(e & ~kSingleCell);                         // a cell's one primitive
+      if (e >= kEmptyCell) return e - kEmptyCell;  // an empty cell's empty-space distance
+      if (e < kPackedCell) {
+        f(e - kSingleCell);  // a cell's one primitive
+        return 0;
+      }
+      // A packed cell: its run's header (the triangle count), then its blocks.
+      const std::uint32_t header = e - kPackedCell;
+      const std::byte* head = pager_->at(blocks_ + header);
+      std::uint32_t triangles;
+      std::memcpy(&triangles, head, sizeof triangles);
+      const std::uint32_t blocks = (triangles + core::kBlockLanes - 1) / core::kBlockLanes;
+      const std::uint32_t in_page = layout_.page_size - (header & (layout_.page_size - 1)) - kPackedHeaderBytes;
+      if (blocks * std::uint32_t(sizeof(core::TriangleBlock)) <= in_page) [[likely]]
+        packed(core::CellBlockSpan{reinterpret_cast<const core::TriangleBlock*>(head + kPackedHeaderBytes), blocks,
+                                   triangles});
+      else
+        visit_chained_blocks(blocks_ + header + kPackedHeaderBytes, blocks, triangles, packed);
       return 0;
     }
-    const std::byte* head = pager_->at(lists_ + e);  // the list's header: count, then ids or a block address
+    const std::byte* head = pager_->at(lists_ + e);  // the list's header (its count), then its ids
     std::uint32_t count;
     std::memcpy(&count, head, sizeof count);
-    if (count & kPackedCell) {
-      const std::uint32_t triangles = count & ~kPackedCell;
-      const std::uint32_t blocks = (triangles + core::kBlockLanes - 1) / core::kBlockLanes;
-      std::uint32_t first;  // the header's second word: a run of 8 bytes never crosses a page
-      std::memcpy(&first, head + sizeof count, sizeof first);
-      const std::uint32_t in_page = layout_.page_size - (first & (layout_.page_size - 1));
-      const std::uint64_t address = blocks_ + first;
-      if (blocks * std::uint32_t(sizeof(core::TriangleBlock)) <= in_page) [[likely]]
-        packed(core::CellBlockSpan{reinterpret_cast<const core::TriangleBlock*>(pager_->at(address)), blocks, triangles});
-      else
-        visit_chained_blocks(address, blocks, triangles, packed);
-      return 0;
-    }
     // The ids follow the header; a list longer than the rest of its page
     // goes on at the next page's first byte.
     std::uint32_t left = count;

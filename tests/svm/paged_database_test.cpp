@@ -29,11 +29,11 @@ DirectoryEntry entry_of(const PagedImage& im, std::uint32_t c) {
 /// Cell c as the image holds it: an empty cell's distance, or the ids it
 /// lists (its directory entry's one id, or its list read from the lists
 /// segment, checking that every word lies in a page of the segment); for a
-/// packed cell, its header's count and block address.
+/// packed cell, its run header's address and count.
 struct CellRecord {
   bool empty = false, single = false, packed = false;
-  std::uint32_t distance = 0, count = 0, block_address = 0;
-  std::uint32_t first_page = 0, last_page = 0;  // of a list's run, header included
+  std::uint32_t distance = 0, count = 0, header = 0;
+  std::uint32_t first_page = 0, last_page = 0;  // of a list, header included
   std::vector<std::uint32_t> ids;
 };
 
@@ -41,15 +41,23 @@ CellRecord record_of(const PagedImage& im, std::uint32_t c) {
   const PageLayout& l = im.layout;
   const DirectoryEntry e = entry_of(im, c);
   CellRecord r;
-  if (e & kEmptyCell) {
-    r.empty = true;
-    r.distance = e & ~kEmptyCell;
-    return r;
-  }
-  if (e & kSingleCell) {
-    r.single = true;
-    r.ids.push_back(e & ~kSingleCell);
-    return r;
+  switch (e & kEmptyCell) {  // the top two bits
+    case kEmptyCell:
+      r.empty = true;
+      r.distance = e & kMaxEntryValue;
+      return r;
+    case kSingleCell:
+      r.single = true;
+      r.ids.push_back(e & kMaxEntryValue);
+      return r;
+    case kPackedCell:
+      r.packed = true;
+      r.header = e & kMaxEntryValue;
+      REQUIRE(l.block_address_page(r.header) >= l.block_first);
+      REQUIRE(l.block_address_page(r.header) < l.block_first + l.block_pages);
+      r.count = word_at(im, l.block_address_page(r.header), l.block_address_offset(r.header));
+      return r;
+    default: break;
   }
   auto word = [&](std::uint32_t a) {
     const std::uint32_t page = l.list_page(a);
@@ -59,14 +67,7 @@ CellRecord record_of(const PagedImage& im, std::uint32_t c) {
     return word_at(im, page, l.list_offset(a));
   };
   r.first_page = l.list_page(e);
-  const std::uint32_t head = word(e);
-  r.count = head & ~kPackedCell;
-  if (head & kPackedCell) {
-    r.packed = true;
-    r.block_address = word(e + 4);
-    REQUIRE(r.last_page == r.first_page);  // a packed cell's header never crosses a page
-    return r;
-  }
+  r.count = word(e);
   for (std::uint32_t i = 0; i < r.count; ++i) r.ids.push_back(word(e + 4 + 4 * i));
   return r;
 }
@@ -198,18 +199,22 @@ TEST_CASE("paged database: packed cells (--pack-cells) hold their blocks in the 
         ++packed;
         REQUIRE(r.packed);
         REQUIRE(r.count == n);
-        const std::uint32_t slot0 = l.block_slot(r.block_address);
-        REQUIRE(l.block_address(slot0) == r.block_address);
-        REQUIRE(l.block_address_page(r.block_address) == l.block_page(slot0));
-        REQUIRE(l.block_address_offset(r.block_address) == l.block_offset(slot0));
-        const std::uint32_t first = l.block_page(slot0), last = l.block_page(slot0 + (k1 - k0) - 1);
-        if (k1 - k0 <= per_page) REQUIRE(first == last);  // a cell that fits in a page stays in one
+        REQUIRE(r.header % 32 == 0);  // the blocks stay 32-byte aligned
+        // The header and the first block share a page; a run that fits in
+        // a page stays in one; blocks never cross a page.
+        const std::uint32_t first = l.block_address_page(l.packed_block_address(r.header, 0));
+        const std::uint32_t last = l.block_address_page(l.packed_block_address(r.header, k1 - k0 - 1));
+        REQUIRE(first == l.block_address_page(r.header));
+        if (32 + (k1 - k0) * 320 <= ps) REQUIRE(first == last);
         else ++spanning;
-        for (std::uint32_t k = k0, slot = slot0; k < k1; ++k, ++slot) {
-          REQUIRE(l.block_page(slot) >= l.block_first);
-          REQUIRE(l.block_page(slot) < l.block_first + l.block_pages);
-          REQUIRE(l.block_offset(slot) + 320 <= ps);
-          REQUIRE(std::memcmp(im.page(l.block_page(slot)).data() + l.block_offset(slot), &blocks.blocks[k], 320) == 0);
+        for (std::uint32_t k = k0; k < k1; ++k) {
+          const std::uint32_t a = l.packed_block_address(r.header, k - k0);
+          REQUIRE(a % 32 == 0);
+          REQUIRE(l.block_address_page(a) < l.block_first + l.block_pages);
+          REQUIRE(l.block_address_offset(a) + 320 <= ps);
+          if (k > k0) REQUIRE(a > l.packed_block_address(r.header, k - k0 - 1));  // in order, none overlapping
+          REQUIRE(std::memcmp(im.page(l.block_address_page(a)).data() + l.block_address_offset(a), &blocks.blocks[k],
+                              320) == 0);
         }
       }
       CHECK(l.packed_cells == packed);
@@ -217,7 +222,7 @@ TEST_CASE("paged database: packed cells (--pack-cells) hold their blocks in the 
       CHECK(l.listed_cells == listed_cells);
       CHECK(listed < b.grid.cell_primitives.size());  // packed cells keep no list
       CHECK(l.object_bytes == b.db.primitives.size() * 64 + b.db.vertex_normals.size() * 36 +
-                                  std::size_t(b.grid.info.cell_count()) * 4 + (listed_cells + listed + 2 * packed) * 4 +
+                                  std::size_t(b.grid.info.cell_count()) * 4 + (listed_cells + listed) * 4 + packed * 32 +
                                   blocks.blocks.size() * 320);
       if (ps == 512) CHECK(spanning > 0);  // the chained case is exercised
     }
