@@ -21,28 +21,6 @@ bool is_packed(const core::CellBlocks* blocks, std::uint32_t cell) {
   return blocks && blocks->start[cell] != blocks->start[cell + 1];
 }
 
-/// Places, cell by cell, the run of units(c) units (list bytes, block
-/// slots) of every cell that has one, per_page units a page (the file
-/// comment's rule: a run that does not fit in the rest of the current page
-/// but fits in one page starts on a fresh page, a longer run continues page
-/// after page), and calls place(cell, first unit). Returns the units used;
-/// throws std::length_error(too_many()) past 2^32 units.
-template <class Units, class TooMany, class Place>
-std::uint64_t place_runs(std::uint32_t cells, std::uint64_t per_page, Units&& units, TooMany&& too_many,
-                         Place&& place) {
-  std::uint64_t cursor = 0;
-  for (std::uint32_t c = 0; c < cells; ++c) {
-    const std::uint64_t n = units(c);
-    if (n == 0) continue;
-    const std::uint64_t room = per_page - cursor % per_page;
-    if (n > room && n <= per_page) cursor += room;  // keep a short run in one page
-    if (cursor + n > 0xffffffffull) throw std::length_error(too_many());
-    place(c, std::uint32_t(cursor));
-    cursor += n;
-  }
-  return cursor;
-}
-
 /// Bytes of cell c's run in the lists segment: a header word and its ids
 /// for an unpacked cell that lists two primitives or more, none for an
 /// empty, one-primitive or packed cell.
@@ -52,21 +30,28 @@ std::uint64_t list_run_bytes(const core::Grid& grid, const core::CellBlocks* blo
   return n < 2 ? 0 : (1 + n) * sizeof(std::uint32_t);
 }
 
-/// The lists segment: every listed cell's run; place(cell, byte address of
-/// its header). Returns the segment's used bytes; throws
-/// std::length_error past the 1 GiB a directory entry can address.
+/// The lists segment: every listed cell's run, a list that does not fit
+/// in the rest of the current page but fits in one page on a fresh page
+/// (the file comment's rule); place(cell, byte address of its header).
+/// Returns the segment's used bytes; throws std::length_error past the
+/// 1 GiB a directory entry can address.
 template <class Place>
 std::uint64_t place_lists(const core::Grid& grid, const core::CellBlocks* blocks, std::uint32_t page_size,
                           Place&& place) {
-  const auto too_many = [&] {
-    return fmt::format("svm: the cell lists need more than {} MiB ({} ids), the most a directory entry addresses",
-                       (std::uint64_t(kMaxEntryValue) + 1) >> 20, grid.references());
-  };
-  const std::uint64_t used = place_runs(
-      grid.info.cell_count(), page_size, [&](std::uint32_t c) { return list_run_bytes(grid, blocks, c); }, too_many,
-      place);
-  if (used > std::uint64_t(kMaxEntryValue) + 1) throw std::length_error(too_many());
-  return used;
+  std::uint64_t cursor = 0;
+  for (std::uint32_t c = 0; c < grid.info.cell_count(); ++c) {
+    const std::uint64_t bytes = list_run_bytes(grid, blocks, c);
+    if (bytes == 0) continue;
+    const std::uint64_t room = page_size - cursor % page_size;
+    if (bytes > room && bytes <= page_size) cursor += room;  // keep a short list in one page
+    if (cursor + bytes > std::uint64_t(kMaxEntryValue) + 1)
+      throw std::length_error(fmt::format("svm: the cell lists need more than {} MiB ({} ids), the most a directory "
+                                          "entry addresses",
+                                          (std::uint64_t(kMaxEntryValue) + 1) >> 20, grid.references()));
+    place(c, std::uint32_t(cursor));
+    cursor += bytes;
+  }
+  return cursor;
 }
 
 /// The blocks segment: every packed cell's run (header and blocks, the
