@@ -125,6 +125,9 @@ std::vector<core::CostSample> pager_samples(const core::Database& db, const core
     machine.run(
         [&](nodes::NodeContext& ctx) {
           svm::Pager pager(ctx, image.layout, ctx.id() == 0 && n > 1 ? image.layout.pages : 0);
+          // The cache never fills here: keep the LRU order anyway, so that
+          // the samples hold the LRU updates of a full cache.
+          pager.keep_lru_order();
           for (std::uint32_t p = ctx.id(); p < image.layout.pages; p += n)
             std::memcpy(pager.home_frame(p), image.page(p).data(), image.layout.page_size);
           if (ctx.id() != 0) {
@@ -137,7 +140,7 @@ std::vector<core::CostSample> pager_samples(const core::Database& db, const core
           auto pager_counts = [&](core::CostCounts& c) {
             const svm::PagerStats& p = pager.stats();
             c[std::size_t(core::CostFeature::kPageAccess)] = double(p.accesses);
-            c[std::size_t(core::CostFeature::kCacheAccess)] = double(p.cache_accesses);
+            c[std::size_t(core::CostFeature::kLruUpdate)] = double(p.lru_updates());
             c[std::size_t(core::CostFeature::kPageFault)] = double(p.misses);
           };
           auto in_pixel = [&](auto&& trace) {

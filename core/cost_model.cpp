@@ -18,7 +18,7 @@ const char* cost_feature_name(CostFeature f) {
     case CostFeature::kConeTest: return "cone_test";
     case CostFeature::kMailboxSkip: return "mailbox_skip";
     case CostFeature::kPageAccess: return "page_access";
-    case CostFeature::kCacheAccess: return "cache_access";
+    case CostFeature::kLruUpdate: return "lru_update";
     case CostFeature::kPageFault: return "page_fault";
     case CostFeature::kCount: break;
   }

@@ -42,7 +42,7 @@ enum class CostFeature : int {
   kConeTest,      ///< ray/cone test
   kMailboxSkip,   ///< test avoided by the per-ray mailbox
   kPageAccess,    ///< svm: object access through the page table
-  kCacheAccess,   ///< svm: first access in a pixel to a page that is not home (its LRU update)
+  kLruUpdate,     ///< svm: LRU stamp given (svm::PagerStats::lru_updates: a cached page's first access in a pixel once the cache is full)
   kPageFault,     ///< svm: local work of a page fault (victim, frame copy, table); modelled, not fitted
   kCount
 };
@@ -100,10 +100,11 @@ inline CostModel default_cost_model() {
   at(CostFeature::kSphereTest) = 6.645e-9;
   at(CostFeature::kConeTest) = 28.19e-9;
   at(CostFeature::kMailboxSkip) = 7.387e-9;
-  // Fits ranged 3.3-4.6 ns (page access) and 0-2.8 ns (cache access): the
-  // two counts move together, so the split is loose; their sum is not.
+  // Fits ranged 3.3-4.6 ns (page access) and 0-2.8 ns (cache access, now
+  // an LRU update): the two counts move together, so the split is loose;
+  // their sum is not.
   at(CostFeature::kPageAccess) = 3.5e-9;
-  at(CostFeature::kCacheAccess) = 2.5e-9;
+  at(CostFeature::kLruUpdate) = 2.5e-9;
   // Modelled, not fitted: the local work of a fault (pick the victim, copy
   // a 1 KiB page into its frame, update the table) ~ 0.15 us. The CPU time
   // of a fault in an emulated run (~2.6 us fitted) is mostly the emulator's

@@ -17,6 +17,8 @@ constexpr int kSpinYields = 64;
 PagerStats& PagerStats::operator+=(const PagerStats& o) {
   accesses += o.accesses;
   cache_accesses += o.cache_accesses;
+  cache_misses += o.cache_misses;
+  lru_order_frames += o.lru_order_frames;
   misses += o.misses;
   for (std::size_t s = 0; s < kSegments; ++s) segment_misses[s] += o.segment_misses[s];
   evictions += o.evictions;
@@ -76,6 +78,7 @@ Pager::Pager(nodes::NodeContext& ctx, const PageLayout& layout, std::uint32_t ca
   for (std::uint32_t s = 0; s < home_frames_; ++s)
     set_frame_offset(s * nodes_ + ctx.id(), s << layout.page_shift);
   home_end_ = home_frames_ << layout.page_shift;
+  lookup_end_ = not_resident_;  // no LRU order yet
   stats_.home_pages = home_frames_;
   stats_.cache_pages = cache_frames_;
 }
@@ -93,6 +96,25 @@ void Pager::flush_recency() {
   }
   stats_.cache_accesses += touched_n_;
   touched_n_ = 0;
+}
+
+void Pager::order_lru(std::uint32_t newest) {
+  // The event ring (2 per frame) is the sort's scratch: {frame, pixel stamp}.
+  const std::uint32_t n = cache_used_;
+  for (std::uint32_t f = 0; f < n; ++f)
+    events_[f] = LruEvent{f, f == newest ? kNone : table_[frame_page_[f]].stamp & ~kEvictedInPixel};
+  std::sort(events_.data(), events_.data() + n, [](const LruEvent& a, const LruEvent& b) {
+    return a.stamp != b.stamp ? a.stamp < b.stamp : a.frame < b.frame;
+  });
+  for (std::uint32_t i = 0; i < n; ++i) {
+    frame_used_[events_[i].frame] = ++lru_clock_;
+    events_[i].stamp = lru_clock_;
+  }
+  events_head_ = 0;
+  events_n_ = n;
+  stats_.lru_order_frames += n;
+  lru_ordered_ = true;
+  lookup_end_ = home_end_;
 }
 
 void Pager::compact_events() {
@@ -132,7 +154,7 @@ std::uint32_t Pager::touch(std::uint32_t page) {
   const bool first = (entry->stamp & ~kEvictedInPixel) != pixel_stamp_;
   if (first) {
     ++pixel_pages_;
-    if (offset >= home_end_) {  // a cache frame, or not resident
+    if (offset >= home_end_ && lru_ordered_) {  // a cache frame, or not resident
       touched_[touched_n_++] = page;
       if (touched_n_ == kTouchedCapacity) [[unlikely]] flush_recency();
     }
@@ -148,6 +170,8 @@ std::uint32_t Pager::touch(std::uint32_t page) {
 }
 
 void Pager::forget_stamps() {
+  // The stamps are the recency of cached pages while no order is kept.
+  if (!lru_ordered_ && cache_used_ > 0) order_lru(kNone);
   for (std::size_t p = 0; p < table_.size(); ++p) table_[p].stamp = 0;
   pixel_stamp_ = 1;
 }
@@ -188,6 +212,7 @@ std::uint32_t Pager::fault(std::uint32_t page) {
     throw std::logic_error(fmt::format("{}: page {} is not home and the node has no cache",
                                        nodes::node_name(ctx_.id()), page));
   ++stats_.misses;
+  if (lru_ordered_) ++stats_.cache_misses;
   ++stats_.segment_misses[std::size_t(layout_.segment(page))];
   // The victim: a free cache frame, else the least recently used page (the
   // touches noted so far in this pixel count).
@@ -253,9 +278,12 @@ std::uint32_t Pager::fault(std::uint32_t page) {
   ctx_.note_wait(nodes::WaitReason::kNone);
   ctx_.advance_to(arrival, nodes::WaitKind::kCommunication);
   frame_page_[victim - home_frames_] = page;
-  stamp(victim - home_frames_);
   const std::uint32_t offset = victim << layout_.page_shift;
   set_frame_offset(page, offset);
+  if (lru_ordered_)
+    stamp(victim - home_frames_);
+  else if (cache_used_ == cache_frames_)
+    order_lru(victim - home_frames_);  // the last free frame: from now on, victims are needed
   // Compute again only with a run permit, answering requests meanwhile.
   while (released && !ctx_.try_resume()) {
     ctx_.wait_for_mail(0);

@@ -19,7 +19,10 @@
 // is still its frame's (O(1) amortised, "at no extra cost" as in the
 // paper). The stamps are given lazily, from a list of the pixel's first
 // touches, at the pixel's end or before a victim is chosen, which keeps
-// the traversal's hot path a page-table read. A page's entry carries the
+// the traversal's hot path a page-table read. No order is kept while the
+// cache has free frames, as no victim is needed: cached pages are then
+// read like home pages, and the order is built once, from the pages'
+// pixel stamps, when the last free frame is taken (order_lru). A page's entry carries the
 // stamp of the last pixel that touched it, so a new pixel starts by
 // advancing one counter, with no pass over the pages touched.
 //
@@ -61,7 +64,14 @@ struct PageReplyMsg {
 /// Counters of one node's pager.
 struct PagerStats {
   std::uint64_t accesses = 0;        ///< object accesses through the page table
-  std::uint64_t cache_accesses = 0;  ///< first accesses in a pixel to pages that are not home (each an LRU update), + refaults
+  /// First accesses in a pixel to pages that are not home (each an LRU
+  /// update), + refaults, counted while the LRU order is kept, i.e. from
+  /// the moment the cache is full: before that, cached pages are read like
+  /// home pages (no order is needed while frames are free) and only their
+  /// faults are seen.
+  std::uint64_t cache_accesses = 0;
+  std::uint64_t cache_misses = 0;    ///< faults counted in cache_accesses (while the LRU order is kept)
+  std::uint64_t lru_order_frames = 0;  ///< frames stamped when the LRU order was built (order_lru)
   std::uint64_t misses = 0;          ///< page faults: pages fetched from their home node
   std::uint64_t segment_misses[kSegments] = {};  ///< misses by the segment of the page (Segment)
   std::uint64_t evictions = 0;       ///< cached pages dropped to make room (LRU)
@@ -73,11 +83,14 @@ struct PagerStats {
   std::uint32_t cache_pages = 0;     ///< cache frames
 
   std::uint64_t hits() const { return accesses - misses; }
+  /// LRU stamps given: cache accesses + frames ordered when the cache filled.
+  std::uint64_t lru_updates() const { return cache_accesses + lru_order_frames; }
+  /// The full cache's own miss ratio, 0..1: faults per cache access (each
+  /// non-home page once per pixel), from the moment the cache is full; 0 if
+  /// it never was.
+  double cache_miss_ratio() const { return cache_accesses ? double(cache_misses) / double(cache_accesses) : 0.0; }
   /// Faults per access, 0..1 (0 with no access).
   double miss_ratio() const { return accesses ? double(misses) / double(accesses) : 0.0; }
-  /// Faults per cache access: the cache's own miss ratio, counting each
-  /// non-home page once per pixel.
-  double cache_miss_ratio() const { return cache_accesses ? double(misses) / double(cache_accesses) : 0.0; }
   /// The paper's "average pages per pixel" (Table 2).
   double pages_per_pixel() const { return pixels ? double(pixel_pages) / double(pixels) : 0.0; }
   PagerStats& operator+=(const PagerStats& o);
@@ -129,7 +142,7 @@ class Pager {
   /// from the frames (the word is the frame's offset minus the page's
   /// address), so the offset in the page needs no masking. Its one branch
   /// is "not home and not touched in this pixel" (its stamp is not the
-  /// pixel's): touch() then notes the cache page's first touch in a short
+  /// pixel's; while the cache has free frames, "not resident"): touch() then notes the cache page's first touch in a short
   /// list, faults when the page is not resident (or was evicted in this
   /// pixel), and stamps the entry. Otherwise the entry takes the pixel's
   /// stamp and a home page's first touch is counted without a branch: that
@@ -137,7 +150,10 @@ class Pager {
   /// mispredicted often (docs/results.md, "One node, fifth pass"). The list
   /// updates the pages' LRU recency at the pixel's end or at the next
   /// fault (flush_recency), before any victim is chosen, so evictions are
-  /// those of an LRU updated at each first touch. A new pixel needs no pass
+  /// those of an LRU updated at each first touch. While the cache has free
+  /// frames no order is kept and a cached page takes the home pages' path
+  /// (its entry's stamp is its recency; order_lru reads them when the last
+  /// free frame is taken). A new pixel needs no pass
   /// over the touched pages: it only advances the stamp. Throws what the
   /// messaging throws (nodes::RunAborted) and std::logic_error on a
   /// protocol error.
@@ -147,14 +163,16 @@ class Pager {
     PageEntry& e = table_.data()[page];
     std::uint32_t offset = e.word + std::uint32_t(address);
     const std::uint32_t stamp = pixel_stamp_;
-    if (offset >= home_end_ && e.stamp != stamp) [[unlikely]] {
-      // Not home, and not touched in this pixel: a cache page's first
-      // touch, a fault, or a touch after an eviction.
+    if (offset >= lookup_end_ && e.stamp != stamp) [[unlikely]] {
+      // Not resident, or (once the LRU order is kept) a cache page not
+      // touched in this pixel: a cache page's first touch, a fault, or a
+      // touch after an eviction.
       offset = touch(std::uint32_t(page)) + (std::uint32_t(address) & (layout_.page_size - 1));
     } else {
-      // Home, or touched in this pixel. Here e.stamp <= stamp (a home
-      // page's stamp never carries kEvictedInPixel, a cache page's is the
-      // pixel's), so `<` is "first touch".
+      // Home (or cached, while no LRU order is kept), or touched in this
+      // pixel. Here e.stamp <= stamp (such a page's stamp never carries
+      // kEvictedInPixel, a cache page's is the pixel's), so `<` is "first
+      // touch".
       pixel_pages_ += std::uint32_t(e.stamp < stamp);
       e.stamp = stamp;
     }
@@ -201,6 +219,13 @@ class Pager {
   const PagerStats& stats() const { return stats_; }
   /// Is `page` resident (home or cached)? For tests.
   bool resident(std::uint32_t page) const { return frame_offset(page) != not_resident_; }
+  /// Is the LRU order kept (the cache has been full, or keep_lru_order)?
+  bool lru_ordered() const { return lru_ordered_; }
+  /// Keeps the LRU order from now on, free frames or not (for `bench
+  /// cost-model`, which measures the cost of an LRU update).
+  void keep_lru_order() {
+    if (!lru_ordered_) order_lru(kNone);
+  }
 
  private:
   /// PageEntry::stamp's top bit: the page was touched in the pixel whose
@@ -235,8 +260,15 @@ class Pager {
   /// returns the page's frame offset.
   [[gnu::noinline]] std::uint32_t touch(std::uint32_t page);
   /// Gives every page in the touched list a new LRU stamp, in first-touch
-  /// order, and counts them as cache accesses.
+  /// order, and counts them as LRU updates.
   [[gnu::noinline]] void flush_recency();
+  /// Starts keeping the LRU order: stamps the occupied cache frames in the
+  /// order of their pages' pixel stamps (the last pixel that touched each;
+  /// within one pixel, by frame, i.e. fetch order), frame `newest` (a cache
+  /// frame index, or kNone) last, and sends cache pages' first touches
+  /// in a pixel back through touch(). O(F log F) for F occupied frames,
+  /// once per run; counts F in lru_order_frames.
+  [[gnu::noinline]] void order_lru(std::uint32_t newest);
   /// Advances the pixel stamp (every entry leaves the fast path); on
   /// wrapping, forgets every entry's stamp.
   void next_pixel_stamp() {
@@ -279,6 +311,9 @@ class Pager {
   std::byte* frames_ = nullptr;
   /// Advances at each pixel's start and end, below kEvictedInPixel; 0 = never.
   std::uint32_t pixel_stamp_ = 1;
+  /// Offsets below it take at()'s fast path: home_end_ once the LRU order
+  /// is kept, else not_resident_ (every resident page).
+  std::uint32_t lookup_end_ = 0;
   std::uint32_t home_end_ = 0;  ///< byte offset of the first cache frame: offsets below it are home pages
   std::uint32_t pixel_pages_ = 0;
   PagerStats stats_;
@@ -303,6 +338,7 @@ class Pager {
   std::uint32_t touched_n_ = 0;
   std::uint32_t lru_clock_ = 0;  ///< last LRU stamp given
   bool in_pixel_ = false;
+  bool lru_ordered_ = false;  ///< LRU stamps are given (order_lru has run)
 };
 
 }  // namespace raynode::svm

@@ -48,13 +48,13 @@ struct NodeState {
   core::CostModel cost_model;
 
   /// The model clock's work meter (NodeContext::set_work_meter): the
-  /// tracer's operations plus the pager's accesses, lookups and faults.
+  /// tracer's operations plus the pager's accesses, LRU updates and faults.
   static double work_seconds(const void* self) {
     const NodeState& s = *static_cast<const NodeState*>(self);
     core::CostCounts c = core::cost_counts(s.scratch->stats.rays, s.scratch->traversal.stats);
     const PagerStats& p = s.pager->stats();
     c[std::size_t(core::CostFeature::kPageAccess)] = double(p.accesses);
-    c[std::size_t(core::CostFeature::kCacheAccess)] = double(p.cache_accesses);
+    c[std::size_t(core::CostFeature::kLruUpdate)] = double(p.lru_updates());
     c[std::size_t(core::CostFeature::kPageFault)] = double(p.misses);
     return s.cost_model.seconds(c);
   }
@@ -285,7 +285,9 @@ nlohmann::json SvmResult::to_json() const {
                           {"misses_by_segment", by_segment},
                           {"miss_ratio", p.miss_ratio()},
                           {"cache_accesses", p.cache_accesses},
+                          {"cache_misses", p.cache_misses},
                           {"cache_miss_ratio", p.cache_miss_ratio()},
+                          {"lru_updates", p.lru_updates()},
                           {"evictions", p.evictions},
                           {"page_requests", c.sent[std::size_t(nodes::MessageType::kPageRequest)].messages},
                           {"page_requests_served", p.requests_served},

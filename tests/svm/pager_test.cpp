@@ -102,7 +102,10 @@ TEST_CASE("pager: a miss fetches the page's bytes from its home node; LRU evicts
     CHECK(pager.stats().misses == 4);
     CHECK(pager.stats().evictions == 2);
     CHECK(pager.stats().accesses == 6);
-    CHECK(pager.stats().cache_accesses == 5);
+    // Counted from B's fault, which filled the cache: A's touch, C and B.
+    CHECK(pager.stats().cache_accesses == 3);
+    CHECK(pager.stats().cache_misses == 2);
+    CHECK(pager.stats().lru_updates() == 2 + 3);  // the order built of A and B, then one per cache access
     CHECK(pager.resident(0));
   });
 }
@@ -116,7 +119,8 @@ TEST_CASE("pager: recency is a page's first access in each pixel, not its later 
     pager.access(A);
     pager.access(B);
     pager.access(A);  // same pixel: A stays older than B
-    CHECK(pager.stats().cache_accesses == 2);
+    CHECK(pager.stats().cache_accesses == 0);  // B filled the cache: the order was built of A, then B
+    CHECK(pager.stats().lru_updates() == 2);
     pager.begin_pixel();
     pager.access(A);  // a new pixel: A becomes the most recent
     pager.access(C);  // evicts B, not A
@@ -224,8 +228,11 @@ TEST_CASE("pager: LRU stays exact when a pixel first-touches more pages than the
     pager.end_pixel();
     CHECK(pager.stats().evictions == 2);
     CHECK(pager.stats().pixel_pages == cache + (cache - 1 + 2));
-    // Each page once per pixel it was touched in.
-    CHECK(pager.stats().cache_accesses == cache + (cache - 1 + 2));
+    // Each page once per pixel it was touched in: in the first pixel as the
+    // order was built (the cache filled), in the second as cache accesses.
+    CHECK(pager.stats().lru_order_frames == cache);
+    CHECK(pager.stats().cache_accesses == cache - 1 + 2);
+    CHECK(pager.stats().lru_updates() == cache + (cache - 1 + 2));
   });
 }
 
@@ -241,8 +248,10 @@ TEST_CASE("pager: a page fetched again within its pixel (1-page cache) counts on
     pager.access(0);                                                     // home
     pager.end_pixel();
     CHECK(pager.stats().misses == 3);
-    CHECK(pager.stats().cache_accesses == 3);
+    // A's first fault filled the cache; from there B and A's second fetch.
+    CHECK(pager.stats().cache_accesses == 2);
     CHECK(pager.stats().cache_miss_ratio() == doctest::Approx(1.0));
+    CHECK(pager.stats().lru_updates() == 3);
     CHECK(pager.stats().pixel_pages == 3);
     CHECK(pager.stats().accesses == 4);
     // Next pixel: A is resident, B (evicted in the last pixel) faults again
@@ -286,6 +295,53 @@ TEST_CASE("pager: a pixel touching more pages than its lists hold counts each on
     CHECK(pager.stats().pixel_pages == 2 * n);
     CHECK(pager.stats().misses == 0);
     CHECK(pager.stats().cache_accesses == 0);
+    CHECK(pager.stats().lru_updates() == 0);
+  });
+}
+
+TEST_CASE("pager: no LRU order while the cache has free frames; the last free frame builds it from the pixels") {
+  // Cached pages are read like home pages until the cache is full; then
+  // the order is each page's last pixel, and LRU evictions follow it.
+  const testing::BuiltScene b = testing::build_spd("teapot", 2);
+  const PagedImage image = build_paged_image(b.db, b.grid, 64);
+  with_two_nodes(image, 3, [&](Pager& pager, nodes::NodeContext&) {
+    auto same = [&](std::uint32_t p) { return std::memcmp(pager.access(p), image.page(p).data(), 64) == 0; };
+    const std::uint32_t A = 1, B = 3, C = 5, D = 7, E = 9;  // homed at node 1
+    pager.begin_pixel();
+    CHECK(same(B));
+    CHECK(same(A));  // fetched after B, touched in the same pixel
+    pager.begin_pixel();
+    CHECK(same(B));  // B is now more recent than A
+    CHECK(same(B));
+    CHECK(same(0));  // home
+    pager.begin_pixel();
+    CHECK(same(B));
+    CHECK(!pager.lru_ordered());
+    CHECK(pager.stats().misses == 2);
+    CHECK(pager.stats().accesses == 7);
+    CHECK(pager.stats().lru_updates() == 0);  // cached pages took the home pages' path
+    pager.begin_pixel();
+    CHECK(same(C));  // the last free frame: order A (pixel 1), B (pixel 3), C
+    CHECK(pager.lru_ordered());
+    CHECK(pager.stats().lru_order_frames == 3);
+    CHECK(same(D));  // evicts A
+    CHECK(!pager.resident(A));
+    CHECK(pager.resident(B));
+    pager.begin_pixel();
+    CHECK(same(C));  // C after D now
+    CHECK(same(E));  // evicts B
+    CHECK(!pager.resident(B));
+    CHECK(pager.resident(C));
+    CHECK(pager.resident(D));
+    CHECK(same(A));  // evicts D: C was touched in this pixel
+    CHECK(!pager.resident(D));
+    CHECK(pager.resident(C));
+    pager.end_pixel();
+    CHECK(pager.stats().misses == 6);
+    CHECK(pager.stats().evictions == 3);
+    CHECK(pager.stats().cache_misses == 3);  // D, E, A: C's fault filled the cache and built the order
+    CHECK(pager.stats().cache_accesses == 4);  // D, C's touch, E, A
+    CHECK(pager.stats().pixel_pages == 2 + 2 + 1 + 2 + 3);
   });
 }
 
