@@ -114,7 +114,7 @@ struct NodeRun {
   std::optional<std::uint64_t> grants;  ///< replicated, svm: work items granted
   // svm
   std::optional<double> miss_ratio;        ///< page faults per object access
-  std::optional<double> cache_miss_ratio;  ///< page faults per non-home page lookup (once per pixel)
+  std::optional<double> cache_miss_ratio;  ///< page faults per non-home page lookup (once per pixel), from the cache's filling (0 if it never fills)
   std::optional<double> pages_per_pixel;   ///< distinct pages per pixel (the paper's Table 2)
   std::optional<double> communication_rate_bytes_per_s;  ///< page bytes received by all nodes / T_p
   std::optional<std::uint64_t> page_requests;

@@ -149,7 +149,7 @@ def plot_miss(ax, rows, xkey):
         ax.plot(x, y, "o-", color="tab:purple", label="per object access")
     x, y = series(rows, xkey, "cache_miss_ratio", 100.0)
     if x:
-        ax.plot(x, y, "s--", color="tab:gray", label="per non-home page lookup")
+        ax.plot(x, y, "s--", color="tab:gray", label="per non-home page lookup, full cache")
     ax.set_yscale("log")
     ax.yaxis.set_major_formatter(FuncFormatter(plain))
     ax.yaxis.set_minor_formatter(FuncFormatter(minor_log_label(ax)))
