@@ -113,8 +113,7 @@ void Pager::order_lru(std::uint32_t newest) {
   events_head_ = 0;
   events_n_ = n;
   stats_.lru_order_frames += n;
-  lru_ordered_ = true;
-  lookup_end_ = home_end_;
+  lookup_end_ = home_end_;  // lru_ordered()
 }
 
 void Pager::compact_events() {
@@ -154,7 +153,7 @@ std::uint32_t Pager::touch(std::uint32_t page) {
   const bool first = (entry->stamp & ~kEvictedInPixel) != pixel_stamp_;
   if (first) {
     ++pixel_pages_;
-    if (offset >= home_end_ && lru_ordered_) {  // a cache frame, or not resident
+    if (offset >= home_end_ && lru_ordered()) {  // a cache frame, or not resident
       touched_[touched_n_++] = page;
       if (touched_n_ == kTouchedCapacity) [[unlikely]] flush_recency();
     }
@@ -171,7 +170,7 @@ std::uint32_t Pager::touch(std::uint32_t page) {
 
 void Pager::forget_stamps() {
   // The stamps are the recency of cached pages while no order is kept.
-  if (!lru_ordered_ && cache_used_ > 0) order_lru(kNone);
+  if (!lru_ordered() && cache_used_ > 0) order_lru(kNone);
   for (std::size_t p = 0; p < table_.size(); ++p) table_[p].stamp = 0;
   pixel_stamp_ = 1;
 }
@@ -212,7 +211,7 @@ std::uint32_t Pager::fault(std::uint32_t page) {
     throw std::logic_error(fmt::format("{}: page {} is not home and the node has no cache",
                                        nodes::node_name(ctx_.id()), page));
   ++stats_.misses;
-  if (lru_ordered_) ++stats_.cache_misses;
+  if (lru_ordered()) ++stats_.cache_misses;
   ++stats_.segment_misses[std::size_t(layout_.segment(page))];
   // The victim: a free cache frame, else the least recently used page (the
   // touches noted so far in this pixel count).
@@ -280,7 +279,7 @@ std::uint32_t Pager::fault(std::uint32_t page) {
   frame_page_[victim - home_frames_] = page;
   const std::uint32_t offset = victim << layout_.page_shift;
   set_frame_offset(page, offset);
-  if (lru_ordered_)
+  if (lru_ordered())
     stamp(victim - home_frames_);
   else if (cache_used_ == cache_frames_)
     order_lru(victim - home_frames_);  // the last free frame: from now on, victims are needed

@@ -22,9 +22,10 @@
 // the traversal's hot path a page-table read. No order is kept while the
 // cache has free frames, as no victim is needed: cached pages are then
 // read like home pages, and the order is built once, from the pages'
-// pixel stamps, when the last free frame is taken (order_lru). A page's entry carries the
-// stamp of the last pixel that touched it, so a new pixel starts by
-// advancing one counter, with no pass over the pages touched.
+// pixel stamps, when the last free frame is taken (order_lru). A page's
+// entry carries the stamp of the last pixel that touched it, so a new
+// pixel starts by advancing one counter, with no pass over the pages
+// touched.
 //
 // Virtual time: a request departs at the faulting node's clock; the home
 // node answers at interrupt level, at the request's arrival plus the
@@ -142,9 +143,10 @@ class Pager {
   /// from the frames (the word is the frame's offset minus the page's
   /// address), so the offset in the page needs no masking. Its one branch
   /// is "not home and not touched in this pixel" (its stamp is not the
-  /// pixel's; while the cache has free frames, "not resident"): touch() then notes the cache page's first touch in a short
-  /// list, faults when the page is not resident (or was evicted in this
-  /// pixel), and stamps the entry. Otherwise the entry takes the pixel's
+  /// pixel's; while the cache has free frames, "not resident"): touch()
+  /// then notes the cache page's first touch in a short list, faults when
+  /// the page is not resident (or was evicted in this pixel), and stamps
+  /// the entry. Otherwise the entry takes the pixel's
   /// stamp and a home page's first touch is counted without a branch: that
   /// branch would follow the pixel's path through the scene and be
   /// mispredicted often (docs/results.md, "One node, fifth pass"). The list
@@ -153,10 +155,9 @@ class Pager {
   /// those of an LRU updated at each first touch. While the cache has free
   /// frames no order is kept and a cached page takes the home pages' path
   /// (its entry's stamp is its recency; order_lru reads them when the last
-  /// free frame is taken). A new pixel needs no pass
-  /// over the touched pages: it only advances the stamp. Throws what the
-  /// messaging throws (nodes::RunAborted) and std::logic_error on a
-  /// protocol error.
+  /// free frame is taken). A new pixel needs no pass over the touched
+  /// pages: it only advances the stamp. Throws what the messaging throws
+  /// (nodes::RunAborted) and std::logic_error on a protocol error.
   const std::byte* at(std::uint64_t address) {
     ++stats_.accesses;
     const std::uint64_t page = address >> layout_.page_shift;  // < layout_.pages
@@ -220,11 +221,12 @@ class Pager {
   /// Is `page` resident (home or cached)? For tests.
   bool resident(std::uint32_t page) const { return frame_offset(page) != not_resident_; }
   /// Is the LRU order kept (the cache has been full, or keep_lru_order)?
-  bool lru_ordered() const { return lru_ordered_; }
+  /// (With no cache frames, from the start: there is nothing to order.)
+  bool lru_ordered() const { return lookup_end_ == home_end_; }
   /// Keeps the LRU order from now on, free frames or not (for `bench
   /// cost-model`, which measures the cost of an LRU update).
   void keep_lru_order() {
-    if (!lru_ordered_) order_lru(kNone);
+    if (!lru_ordered()) order_lru(kNone);
   }
 
  private:
@@ -312,7 +314,7 @@ class Pager {
   /// Advances at each pixel's start and end, below kEvictedInPixel; 0 = never.
   std::uint32_t pixel_stamp_ = 1;
   /// Offsets below it take at()'s fast path: home_end_ once the LRU order
-  /// is kept, else not_resident_ (every resident page).
+  /// is kept (order_lru), else not_resident_ (every resident page).
   std::uint32_t lookup_end_ = 0;
   std::uint32_t home_end_ = 0;  ///< byte offset of the first cache frame: offsets below it are home pages
   std::uint32_t pixel_pages_ = 0;
@@ -338,7 +340,6 @@ class Pager {
   std::uint32_t touched_n_ = 0;
   std::uint32_t lru_clock_ = 0;  ///< last LRU stamp given
   bool in_pixel_ = false;
-  bool lru_ordered_ = false;  ///< LRU stamps are given (order_lru has run)
 };
 
 }  // namespace raynode::svm
