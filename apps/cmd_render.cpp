@@ -76,6 +76,8 @@ struct RenderOptions {
   std::string work_grants = "item";
   // svm
   std::uint32_t page_size = 1024;
+  std::string directory_order = "auto";  ///< auto, linear or bricked
+  bool directory_order_given = false;
   std::string cache;  ///< "" = all free memory, "N" pages or "P%" of the database
   // dataflow
   int subsample = 8;
@@ -286,6 +288,8 @@ core::RenderResult render_frame(const RenderOptions& o, const core::Database& db
   if (o.pack_given && o.pack_min > 0 && (o.mode == "replicated" || o.mode == "dataflow"))
     throw UsageError("--pack-cells " + std::to_string(o.pack_min) + " is for --mode sequential, shared or svm; --mode " +
                      o.mode + " walks the paper's object lists (leave --pack-cells out)");
+  if (o.directory_order_given && o.mode != "svm")
+    throw UsageError("--directory-order is for --mode svm's paged cell directory, not --mode " + o.mode);
   if (o.mode == "dataflow") {
     dataflow::DataflowParams dp;
     dp.render = params;
@@ -327,6 +331,11 @@ core::RenderResult render_frame(const RenderOptions& o, const core::Database& db
     sp.machine = machine_params(o);
     std::tie(sp.item_w, sp.item_h) = parse_work_item(o.work_item);
     sp.page_size = o.page_size;
+    try {
+      sp.directory_order = svm::parse_directory_order(o.directory_order);
+    } catch (const std::invalid_argument& e) {
+      throw UsageError(std::string("--directory-order: ") + e.what());
+    }
     sp.pack_min = o.pack_given ? o.pack_min : 0;  // svm pages the paper's object lists unless asked
     parse_cache(o.cache, sp);
     sp.node_aov = node_aov;
@@ -593,6 +602,9 @@ void register_render_command(CLI::App& app) {
   c->add_option("--page-size", o->page_size,
                 "svm: bytes per page of the shared virtual memory, a power of two from 64 (the paper: 1024)")
       ->capture_default_str();
+  c->add_option("--directory-order", o->directory_order, kDirectoryOrderHelp)
+      ->check(CLI::IsMember({"auto", "linear", "bricked"}))
+      ->capture_default_str();
   c->add_option("--cache", o->cache,
                 "svm: page cache per node, N pages or P% of the database's pages (default: all the memory a node "
                 "has left after its home pages, page table and mailbox)");
@@ -662,6 +674,7 @@ void register_render_command(CLI::App& app) {
   c->add_flag("--quiet,-q", o->quiet, "Print nothing on success, no progress line");
   c->callback([o, c] {
     o->pack_given = c->get_option("--pack-cells")->count() > 0;
+    o->directory_order_given = c->get_option("--directory-order")->count() > 0;
     run_render(*o);
   });
 }

@@ -68,6 +68,10 @@ void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) 
     c.add_option("--page-size", o.page_size,
                  "svm: bytes per page, a power of two from 64 (the paper: 1024)")
         ->capture_default_str();
+  if (set.page_size)
+    c.add_option("--directory-order", o.directory_order, kDirectoryOrderHelp)
+        ->check(CLI::IsMember({"auto", "linear", "bricked"}))
+        ->capture_default_str();
   if (set.dataflow) {
     c.add_option("--subsample", o.subsample, "dataflow: load estimate traces one pixel per NxN block")
         ->check(CLI::Range(1, 4096))
@@ -121,6 +125,11 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
   if (o.page_size < 64 || (o.page_size & (o.page_size - 1)) != 0)
     throw UsageError(fmt::format("--page-size must be a power of two >= 64, got {}", o.page_size));
   s.page_size = o.page_size;
+  try {
+    s.directory_order = svm::parse_directory_order(o.directory_order);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--directory-order: ") + e.what());
+  }
   s.subsample = o.subsample;
   s.partition = dataflow::parse_partition(o.partition);
   s.queue_capacity = o.queue_capacity;
@@ -176,6 +185,7 @@ NodeRun run_node_mode(const core::Database& db, const core::Grid& grid, const st
       p.item_w = spec.item_w;
       p.item_h = spec.item_h;
       p.page_size = spec.page_size;
+      p.directory_order = spec.directory_order;
       p.cache_pages = spec.cache_pages;
       p.cache_fraction = spec.cache_fraction;
       const svm::SvmResult r = svm::render_svm(db, grid, p);

@@ -31,6 +31,7 @@
 #include "dataflow/dataflow.h"
 #include "nodes/machine.h"
 #include "nodes/network.h"
+#include "svm/paged_database.h"
 
 namespace raynode::apps {
 
@@ -40,6 +41,13 @@ inline constexpr const char* kMailWakeupsHelp =
     "virtual-time scheduler when a core is free, serving all its mail at once), immediate (by each "
     "message) or auto (scheduled for dataflow, immediate for replicated and svm, whose nodes block for "
     "each reply). Same virtual times and images; only the wall time differs";
+
+/// Help text of --directory-order (render and the node benchmarks).
+inline constexpr const char* kDirectoryOrderHelp =
+    "svm: order of the paged cell directory: linear (cell order, the paper's), bricked (a page per brick of "
+    "cells, so a ray meets a new directory page every few cells on any axis: about half the directory "
+    "pages a node fetches) or auto (bricked on more than one node; on one node every page is home and the "
+    "linear walk is cheaper). Same images";
 
 /// The machine and mode options as typed on the command line (strings where
 /// the text is parsed later, so errors can name the option).
@@ -60,6 +68,7 @@ struct NodeRunOptions {
   bool skip_empty = true;               ///< grid: empty-space jumps (core::GridParams::skip_empty)
   // svm
   std::uint32_t page_size = 1024;       ///< bytes
+  std::string directory_order = "auto"; ///< auto, linear or bricked (svm::parse_directory_order)
   // dataflow
   int subsample = 8;                    ///< load estimate: one pixel per NxN block
   std::string partition = "balanced";   ///< balanced or equal
@@ -84,6 +93,7 @@ struct NodeRunSpec {
   nodes::MachineParams machine;       ///< nodes set per run
   std::int32_t item_w = 3, item_h = 3;
   std::uint32_t page_size = 1024;     ///< svm
+  std::optional<svm::DirectoryOrder> directory_order;  ///< svm; nullopt = auto
   std::uint32_t cache_pages = 0;      ///< svm: frames per node; 0 = all free memory
   double cache_fraction = 0;          ///< svm: of the database's pages, used when > 0
   int subsample = 8;                  ///< dataflow

@@ -24,8 +24,12 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <concepts>
+#include <type_traits>
+#include <utility>
 
 #include "core/cell_blocks.h"
+#include "core/cell_order.h"
 #include "core/grid.h"
 #include "core/intersect.h"
 #include "core/math.h"
@@ -209,8 +213,14 @@ inline constexpr std::uint32_t kMinJumpDistance = 4;
 /// rounding error moves the restart by at most one cell, within the
 /// cells' conservative margins (grid.h). A jump must pass the current
 /// cell's exit and the previous jump's target, so the walk always ends.
-template <class Visit>
-inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
+///
+/// `order` numbers the cells handed to visit: LinearCellOrder (GridInfo::
+/// cell_index, one add per step) or a CellKeyTables (a bricked directory's
+/// keys, one table read per step; cell_order.h). The cells walked are the
+/// same.
+template <class Order, class Visit>
+inline void walk_grid(const GridInfo& g, const Order& order, const Ray& ray, Visit&& visit) {
+  constexpr bool kLinear = std::is_same_v<Order, LinearCellOrder>;
   const Vec3 inv_v{1.0f / ray.direction.x, 1.0f / ray.direction.y, 1.0f / ray.direction.z};
   float t0, t1;
   if (!intersect_bounds(g.bounds, ray, inv_v, t0, t1)) return;
@@ -225,11 +235,17 @@ inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
   const std::int32_t stride[3] = {1, g.res[0], g.res[0] * g.res[1]};
   int boundary[3], step[3], left[3];  // next boundary index, +-1/0, steps left before leaving
   std::int32_t delta[3];              // linear index change per step
+  const std::int32_t* steps[3];       // bricked: the key's change per step, by next boundary
+  // Axis a's part of cell c's number.
+  auto axis_key = [&](int a, int c) -> std::int32_t {
+    if constexpr (kLinear) return c * stride[a];
+    else return order.key[a][c];
+  };
   float next_t[3];
   std::int32_t cell = 0;
   for (int a = 0; a < 3; ++a) {
     const int c = clamped_floor((pos[a] - lower[a]) * inv_size[a], g.res[a]);
-    cell += c * stride[a];
+    cell += axis_key(a, c);
     // Branch-free on the direction's sign (select, not jump).
     const bool pos_dir = dir[a] > 0.0f, neg_dir = dir[a] < 0.0f;
     step[a] = int(pos_dir) - int(neg_dir);
@@ -238,6 +254,7 @@ inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
     const float t_boundary = (lower[a] + float(boundary[a]) * size[a] - org[a]) * inv[a];
     next_t[a] = (pos_dir || neg_dir) ? t_boundary : kInfinity;
     delta[a] = step[a] * stride[a];
+    if constexpr (!kLinear) steps[a] = pos_dir ? order.up[a] : order.down[a];
   }
   // The walk keeps each axis's state in its own scalars (registers), not in
   // arrays indexed by the run-time axis.
@@ -249,7 +266,8 @@ inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
   auto advance = [&](int& l, int& b, float& n, int a) [[gnu::always_inline]] {
     if (l == 0) return false;
     --l;
-    cell += delta[a];
+    if constexpr (kLinear) cell += delta[a];
+    else cell += steps[a][b];  // b: the boundary crossed
     b += step[a];
     n = (lower[a] + float(b) * size[a] - org[a]) * inv[a];
     return true;
@@ -317,7 +335,7 @@ inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
           c = f < lo ? lo : (f > hi ? hi : f);
           c = c > g.res[a] - 1 ? g.res[a] - 1 : (c < 0 ? 0 : c);
         }
-        cell += c * stride[a];
+        cell += axis_key(a, c);
         b[a] = c + int(step[a] > 0);
         next_t[a] = step[a] != 0 ? (lower[a] + float(b[a]) * size[a] - org[a]) * inv[a] : kInfinity;
         left[a] = step[a] > 0 ? g.res[a] - 1 - c : (step[a] < 0 ? c : -1);
@@ -330,6 +348,25 @@ inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
     // No gain: an ordinary step along k.
     if (!(k == 0 ? advance(l0, b0, n0, 0) : k == 1 ? advance(l1, b1, n1, 1) : advance(l2, b2, n2, 2))) return;
   }
+}
+
+/// walk_grid in the linear cell order.
+template <class Visit>
+inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
+  walk_grid(g, LinearCellOrder{}, ray, std::forward<Visit>(visit));
+}
+
+/// Views whose cell directory is bricked offer cell_order() (a
+/// CellKeyTables); the walk then hands them bricked keys.
+template <class View>
+concept has_cell_order = requires(const View& v) {
+  { v.cell_order() } -> std::convertible_to<const CellKeyTables&>;
+};
+/// The cell order a view's walk uses.
+template <class View>
+decltype(auto) cell_order_of(const View& view) {
+  if constexpr (has_cell_order<View>) return (view.cell_order());
+  else return LinearCellOrder{};
 }
 
 /// Views with packed cells (cell_blocks.h) offer visit_cell(cell, f,
@@ -352,7 +389,7 @@ template <int KX, int KY, int KZ, class View>
   Mailbox::Probe mailbox = scratch.mailbox.probe();
   Hit hit = hit_out;
   bool found = false;
-  walk_grid(view.grid_info(), ray, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
+  walk_grid(view.grid_info(), cell_order_of(view), ray, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
     ++stats.cells_visited;
     const auto listed = [&](std::uint32_t id) {
       if (mailbox.seen_or_insert(id)) {
@@ -387,7 +424,7 @@ template <int KX, int KY, int KZ, class View>
   bool found = false;
   Hit hit;
   hit.t = ray.tmax;
-  walk_grid(view.grid_info(), ray, [&](std::uint32_t cell, float) -> std::uint32_t {
+  walk_grid(view.grid_info(), cell_order_of(view), ray, [&](std::uint32_t cell, float) -> std::uint32_t {
     ++stats.cells_visited;
     const auto listed = [&](std::uint32_t id) {
       if (found) return;

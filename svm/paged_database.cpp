@@ -100,8 +100,19 @@ const char* segment_name(Segment s) {
   return "?";
 }
 
+const char* directory_order_name(DirectoryOrder o) {
+  return o == DirectoryOrder::kBricked ? "bricked" : "linear";
+}
+
+std::optional<DirectoryOrder> parse_directory_order(const std::string& text) {
+  if (text == "auto") return std::nullopt;
+  if (text == "linear") return DirectoryOrder::kLinear;
+  if (text == "bricked") return DirectoryOrder::kBricked;
+  throw std::invalid_argument(fmt::format("directory order must be auto, linear or bricked, got '{}'", text));
+}
+
 PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, std::uint32_t page_size,
-                            const core::CellBlocks* blocks) {
+                            const core::CellBlocks* blocks, DirectoryOrder order) {
   if (page_size < kMinPageSize || page_size > kMaxPageSize || !std::has_single_bit(page_size))
     throw std::invalid_argument(fmt::format(
         "page size must be a power of two from {} B (one primitive record) to {} B, got {} B", kMinPageSize,
@@ -144,7 +155,15 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
   if (block_bytes > 0xffffffffull)  // the blocks' byte addresses are 32-bit
     throw std::length_error(fmt::format("svm: the packed cells need more than 4 GiB ({} blocks)", blocks->blocks.size()));
   const std::uint64_t block_pages = pages_for(block_bytes, page_size);
-  const std::uint64_t dir_pages = (std::uint64_t(l.cells) + (1u << l.directory_shift) - 1) >> l.directory_shift;
+  l.directory_order = order;
+  std::uint64_t dir_pages = (std::uint64_t(l.cells) + (1u << l.directory_shift) - 1) >> l.directory_shift;
+  if (order == DirectoryOrder::kBricked) {
+    l.bricks = core::choose_cell_bricks(grid.info, std::int32_t(1u << l.directory_shift));
+    dir_pages = l.bricks.keys(grid.info) >> l.directory_shift;
+    if (l.bricks.keys(grid.info) > 0x7fffffffull)
+      throw std::length_error(fmt::format("svm: a bricked directory of {} entries does not fit 31-bit keys",
+                                          l.bricks.keys(grid.info)));
+  }
   const std::uint64_t list_pages = pages_for(list_bytes, page_size);
   const std::uint64_t prim_pages = (std::uint64_t(l.primitives) + (1u << l.primitive_shift) - 1) >> l.primitive_shift;
   const std::uint64_t normal_pages =
@@ -179,13 +198,13 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
 }
 
 PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, std::uint32_t page_size,
-                             const core::CellBlocks* blocks) {
+                             const core::CellBlocks* blocks, DirectoryOrder order) {
   if (grid.empty_distance.size() != grid.info.cell_count())
     throw std::invalid_argument(fmt::format("svm: the grid has {} empty-space distances for {} cells (not built by "
                                             "core::build_grid?)",
                                             grid.empty_distance.size(), grid.info.cell_count()));
   PagedImage image;
-  image.layout = make_page_layout(db, grid, page_size, blocks);
+  image.layout = make_page_layout(db, grid, page_size, blocks, order);
   const PageLayout& l = image.layout;
   image.pages = HostPages(std::size_t(l.bytes()));
   std::byte* base = image.pages.data();
@@ -196,7 +215,13 @@ PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, s
   // cell.
   if (l.blocks == 0) blocks = nullptr;
   auto put = [](std::byte* to, std::uint32_t word) { std::memcpy(to, &word, sizeof word); };
-  auto entry = [&](std::uint32_t c) { return at(l.directory_page(c), l.directory_offset(c)); };
+  const core::GridInfo& g = grid.info;
+  auto entry = [&](std::uint32_t c) {
+    const std::uint32_t x = c % std::uint32_t(g.res[0]), yz = c / std::uint32_t(g.res[0]);
+    const std::uint32_t key =
+        l.directory_key(g, std::int32_t(x), std::int32_t(yz % std::uint32_t(g.res[1])), std::int32_t(yz / std::uint32_t(g.res[1])));
+    return at(l.directory_page(key), l.directory_offset(key));
+  };
   for (std::uint32_t c = 0; c < l.cells; ++c) {
     const std::uint32_t begin = grid.cell_start[c], end = grid.cell_start[c + 1];
     if (begin == end) put(entry(c), kEmptyCell | grid.empty_distance[c]);

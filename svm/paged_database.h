@@ -10,7 +10,10 @@
 //
 // Segments, in page order (each starts on a page boundary; the directory
 // is first, at address 0, which PagedView relies on):
-//   directory  one 4-byte DirectoryEntry per grid cell (the "voxels"):
+//   directory  one 4-byte DirectoryEntry per grid cell (the "voxels"),
+//              in cell order or, bricked, a page per brick of cells
+//              (DirectoryOrder, core/cell_order.h; a brick's unused
+//              slots and the grid's edge bricks' padding stay zero):
 //              an empty cell's empty-space distance (so that the walk's
 //              jumps need no other replicated or paged data), the one
 //              primitive id of an unpacked cell that lists one, or else
@@ -43,9 +46,12 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <span>
+#include <string>
 
 #include "core/cell_blocks.h"
+#include "core/cell_order.h"
 #include "core/database.h"
 #include "core/grid.h"
 
@@ -73,6 +79,16 @@ inline constexpr std::uint32_t kMaxEntryValue = kSingleCell - 1;
 /// Bytes of a packed cell's run header (keeps its blocks 32-byte aligned).
 inline constexpr std::uint32_t kPackedHeaderBytes = 32;
 
+/// The order of the cell directory's entries (core/cell_order.h): linear
+/// (cell order, the paper's) or bricked (a page per brick of cells, so a
+/// ray meets a new directory page every few cells on any axis).
+enum class DirectoryOrder : std::uint8_t { kLinear, kBricked };
+/// "linear", "bricked".
+const char* directory_order_name(DirectoryOrder o);
+/// "linear", "bricked" or "auto" (nullopt: the mode chooses); throws
+/// std::invalid_argument naming the text otherwise.
+std::optional<DirectoryOrder> parse_directory_order(const std::string& text);
+
 /// The segments of the shared virtual memory, in page order.
 enum class Segment : std::uint8_t { kDirectory, kLists, kPrimitives, kNormals, kBlocks };
 inline constexpr std::size_t kSegments = 5;
@@ -98,6 +114,11 @@ struct PageLayout {
   std::uint32_t block_first = 0, block_pages = 0;
 
   std::uint32_t directory_shift = 0;   ///< log2(directory entries per page)
+  DirectoryOrder directory_order = DirectoryOrder::kLinear;
+  /// Bricked order: the brick shape (its slots = directory entries per
+  /// page). A cell's entry is at its key (core::CellBricks::key); in the
+  /// linear order the key is the cell's index.
+  core::CellBricks bricks;
   std::uint32_t primitive_shift = 0;   ///< log2(primitives per page)
   std::uint32_t normals_per_page = 0;  ///< TriangleNormals per page
   std::uint32_t blocks_per_page = 0;   ///< TriangleBlocks per page (a long run's pages after its first)
@@ -131,9 +152,14 @@ struct PageLayout {
     return node < pages ? (pages - node + nodes - 1) / nodes : 0;
   }
 
-  std::uint32_t directory_page(std::uint32_t cell) const { return directory_first + (cell >> directory_shift); }
-  std::uint32_t directory_offset(std::uint32_t cell) const {
-    return (cell & ((1u << directory_shift) - 1)) * std::uint32_t(sizeof(DirectoryEntry));
+  /// The directory key of cell (x, y, z) of `g` (the grid laid out).
+  std::uint32_t directory_key(const core::GridInfo& g, std::int32_t x, std::int32_t y, std::int32_t z) const {
+    return directory_order == DirectoryOrder::kBricked ? std::uint32_t(bricks.key(g, x, y, z)) : g.cell_index(x, y, z);
+  }
+  /// The page and offset of the directory entry with key `key`.
+  std::uint32_t directory_page(std::uint32_t key) const { return directory_first + (key >> directory_shift); }
+  std::uint32_t directory_offset(std::uint32_t key) const {
+    return (key & ((1u << directory_shift) - 1)) * std::uint32_t(sizeof(DirectoryEntry));
   }
   std::uint32_t primitive_page(std::uint32_t id) const { return primitive_first + (id >> primitive_shift); }
   std::uint32_t primitive_offset(std::uint32_t id) const {
@@ -162,14 +188,17 @@ struct PageLayout {
 };
 
 /// Builds the layout for a database and grid, with the packed cells of
-/// `blocks` (built from the same db and grid) when given. Throws
+/// `blocks` (built from the same db and grid) when given and the cell
+/// directory in `order` (bricked: core::choose_cell_bricks for a page's
+/// entries; its pages are the bricks, padding included). Throws
 /// std::invalid_argument when page_size is not a power of two in
 /// [kMinPageSize, kMaxPageSize] or, with blocks, below a run header and a
 /// block (352 B), and std::length_error when the database needs more than
 /// 2^32 pages, its lists or packed runs more than 1 GiB or its primitives
 /// more than 2^30 ids (a directory entry's limits).
 PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, std::uint32_t page_size,
-                            const core::CellBlocks* blocks = nullptr);
+                            const core::CellBlocks* blocks = nullptr,
+                            DirectoryOrder order = DirectoryOrder::kLinear);
 
 /// Page-aligned host memory (mmap) that can be made unreadable: the host's
 /// copy of the shared virtual memory, protected once the nodes are loaded
@@ -216,6 +245,7 @@ struct PagedImage {
 /// make_page_layout, and std::invalid_argument when `grid` lacks its
 /// empty-space distances (core::build_grid computes them).
 PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, std::uint32_t page_size,
-                             const core::CellBlocks* blocks = nullptr);
+                             const core::CellBlocks* blocks = nullptr,
+                             DirectoryOrder order = DirectoryOrder::kLinear);
 
 }  // namespace raynode::svm

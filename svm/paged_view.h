@@ -24,6 +24,9 @@
 // cell's blocks (--pack-cells) are handed to visit_cell's `packed` one page
 // piece at a time; `packed` reads only them, so its frame stays put.
 //
+// The directory's entries lie in the linear cell order or in bricks
+// (DirectoryOrder); BrickedPagedView makes the walk keep bricked keys.
+//
 // Thread safety: owner node thread only.
 #pragma once
 
@@ -45,20 +48,14 @@ namespace raynode::svm {
 class PagedView {
  public:
   /// `materials` live in the node's arena (replicated metadata).
+  /// For a directory in the linear order; throws std::logic_error for a
+  /// bricked one (BrickedPagedView walks those).
   PagedView(Pager& pager, const core::GridInfo& grid, std::span<const core::Material> materials)
-      : pager_(&pager),
-        layout_(pager.layout()),
-        lists_(layout_.address(layout_.list_first)),
-        primitives_(layout_.address(layout_.primitive_first)),
-        blocks_(layout_.address(layout_.block_first)),
-        grid_(grid),
-        materials_(materials) {
-    if (layout_.directory_first != 0)
-      throw std::logic_error(fmt::format("svm: the cell directory starts at page {}, not at address 0",
-                                         layout_.directory_first));
-  }
+      : PagedView(pager, grid, materials, DirectoryOrder::kLinear) {}
 
   const core::GridInfo& grid_info() const { return grid_; }
+  /// visit_cell's and for_each_in_cell's `cell` is the cell's directory
+  /// key: its index in the linear order, its bricked key in the other.
 
   /// Calls f(id) for each primitive the cell lists (a packed cell: each
   /// triangle of its blocks, in list order); returns the empty cell's
@@ -135,6 +132,23 @@ class PagedView {
                                                            layout_.normals_offset(id));
   }
 
+ protected:
+  PagedView(Pager& pager, const core::GridInfo& grid, std::span<const core::Material> materials, DirectoryOrder order)
+      : pager_(&pager),
+        layout_(pager.layout()),
+        lists_(layout_.address(layout_.list_first)),
+        primitives_(layout_.address(layout_.primitive_first)),
+        blocks_(layout_.address(layout_.block_first)),
+        grid_(grid),
+        materials_(materials) {
+    if (layout_.directory_first != 0)
+      throw std::logic_error(fmt::format("svm: the cell directory starts at page {}, not at address 0",
+                                         layout_.directory_first));
+    if (layout_.directory_order != order)
+      throw std::logic_error(fmt::format("svm: a view for a {} cell directory over a {} one",
+                                         directory_order_name(order), directory_order_name(layout_.directory_order)));
+  }
+
  private:
   /// A packed cell whose blocks continue page after page: a piece per page.
   template <class P>
@@ -157,6 +171,20 @@ class PagedView {
   std::uint64_t lists_, primitives_, blocks_;
   core::GridInfo grid_;
   std::span<const core::Material> materials_;
+};
+
+/// PagedView over a bricked cell directory: the walk numbers the cells by
+/// their bricked keys (core/cell_order.h), read from `order`, tables built
+/// for the layout's bricks and the grid (which outlive the view).
+class BrickedPagedView : public PagedView {
+ public:
+  BrickedPagedView(Pager& pager, const core::GridInfo& grid, std::span<const core::Material> materials,
+                   const core::CellKeyTables& order)
+      : PagedView(pager, grid, materials, DirectoryOrder::kBricked), order_(order) {}
+  const core::CellKeyTables& cell_order() const { return order_; }
+
+ private:
+  core::CellKeyTables order_;  // a copy: six pointers, one load away
 };
 
 }  // namespace raynode::svm

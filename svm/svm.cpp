@@ -38,6 +38,8 @@ struct NodeState {
   Rect submap;
   nodes::ArenaArray<core::Material> materials;
   nodes::ArenaArray<core::Light> lights;
+  nodes::ArenaArray<std::int32_t> cell_keys;  ///< bricked directory: CellKeyTables' words
+  core::CellKeyTables cell_order;
   nodes::PixelBatch batch;  ///< outgoing pixel blocks (one message's payload)
   Pager* pager = nullptr;
   core::ShadingScratch* scratch = nullptr;
@@ -139,10 +141,12 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
   // The host lays the database out in pages. From here on the run sees only
   // the image and the O(1) metadata (RunInput), never `db` or `grid`.
   // With --pack-cells, the packed cells' triangle blocks are paged too.
+  const DirectoryOrder order = params.directory_order.value_or(
+      params.machine.nodes > 1 ? DirectoryOrder::kBricked : DirectoryOrder::kLinear);
   PagedImage image = [&] {
-    if (params.pack_min == 0) return build_paged_image(db, grid, params.page_size);
+    if (params.pack_min == 0) return build_paged_image(db, grid, params.page_size, nullptr, order);
     const core::CellBlocks blocks = core::build_cell_blocks(db, grid, params.pack_min);
-    return build_paged_image(db, grid, params.page_size, &blocks);
+    return build_paged_image(db, grid, params.page_size, &blocks, order);
   }();
   const RunInput in{&image, grid.info, db.materials, db.lights, db.background, core::Camera(cam_view, w, h)};
   const PageLayout& layout = image.layout;
@@ -160,6 +164,7 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
   out.node_fixed_bytes = nodes::Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload +
                          pager_table_bytes(layout, 0) + sizeof(Pager) + in.materials.size_bytes() +
                          in.lights.size_bytes() + nodes::PixelBatch::bytes(m.max_payload) + sizeof(core::ShadingScratch) +
+                         (order == DirectoryOrder::kBricked ? core::CellKeyTables::words(in.grid) * sizeof(std::int32_t) : 0) +
                          message_reserve(m.max_payload);
   // Fail before starting, with the sizes, when a node cannot hold its part.
   std::vector<std::uint32_t> cache(m.nodes);
@@ -190,6 +195,10 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
     s->arena = &a;
     s->materials = nodes::copy_to_arena(a, in.materials, "the materials");
     s->lights = nodes::copy_to_arena(a, in.lights, "the lights");
+    if (layout.directory_order == DirectoryOrder::kBricked) {
+      s->cell_keys = nodes::ArenaArray<std::int32_t>(a, core::CellKeyTables::words(in.grid), "the cell key tables");
+      s->cell_order = core::CellKeyTables::build(in.grid, layout.bricks, s->cell_keys.span());
+    }
     s->batch = nodes::PixelBatch(a, m.max_payload);
     s->scratch = a.create<core::ShadingScratch>("its tracing scratch");
     s->cost_model = cost_model;
@@ -207,13 +216,13 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
       volatile const std::byte* cheat = in.image->pages.data();
       (void)*cheat;  // must fault: the image is protected
     }
-    const PagedView view(pager, s.grid, s.materials.span());
     const core::ShadingContext shading = core::make_shading_context(
         std::span<const core::Light>(s.lights.span()), s.background, s.render.max_depth, s.render.min_weight);
     core::ShadingScratch& scratch = *s.scratch;
     const bool first = s.render.any_aov();
     ctx.set_work_meter(&NodeState::work_seconds, &s);
-    s.work = nodes::run_work_farm(
+    auto farm = [&](const auto& view) {
+    return nodes::run_work_farm(
         ctx, s.submap, params.item_w, params.item_h,
         [&](NodeContext& c, const Rect& r) {
           float* o = s.batch.add(c, r, pixel_layout.channels);
@@ -229,6 +238,10 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
           pager.end_pixel();
         },
         [&](NodeContext&, const nodes::Message& msg) { return pager.serve(msg); }, &s.batch);
+    };
+    s.work = layout.directory_order == DirectoryOrder::kBricked
+                 ? farm(BrickedPagedView(pager, s.grid, s.materials.span(), s.cell_order))
+                 : farm(PagedView(pager, s.grid, s.materials.span()));
     s.stats = scratch.stats;
     s.stats.traversal = scratch.traversal.stats;
     s.pager_stats = pager.stats();
@@ -308,6 +321,9 @@ nlohmann::json SvmResult::to_json() const {
                 {"primitives", layout.primitive_pages},
                 {"normals", layout.normals_pages},
                 {"blocks", layout.block_pages}};
+  j["directory_order"] = directory_order_name(layout.directory_order);
+  if (layout.directory_order == DirectoryOrder::kBricked)
+    j["directory_brick"] = {layout.bricks.dims[0], layout.bricks.dims[1], layout.bricks.dims[2]};
   j["pack_cells"] = layout.pack_min;
   j["packed_cells"] = layout.packed_cells;
   j["packed_blocks"] = layout.blocks;

@@ -18,6 +18,7 @@
 
 #include <cstdint>
 #include <nlohmann/json_fwd.hpp>
+#include <optional>
 #include <vector>
 
 #include "core/database.h"
@@ -40,6 +41,11 @@ struct SvmParams {
   /// blocks (--pack-cells N, core/cell_blocks.h; needs pages of 512 B or
   /// more); 0 = off, the paper's object lists only.
   std::uint32_t pack_min = 0;
+  /// The cell directory's order (--directory-order); nullopt = auto:
+  /// bricked when the machine has more than one node (it halves the
+  /// directory pages a node fetches; on one node, where every page is home,
+  /// the linear order's walk is cheaper).
+  std::optional<DirectoryOrder> directory_order;
   /// Cache frames per node (--cache N): 0 = all the room the node's memory
   /// has left after its home pages, page table, mailbox and buffers.
   std::uint32_t cache_pages = 0;

@@ -20,10 +20,16 @@ std::uint32_t word_at(const PagedImage& im, std::uint32_t page, std::uint32_t of
   return w;
 }
 
-DirectoryEntry entry_of(const PagedImage& im, std::uint32_t c) {
+/// Cell c's directory entry, found at its key (the cell's index in the
+/// linear order, its brick's page in the bricked one).
+DirectoryEntry entry_of(const PagedImage& im, const core::GridInfo& g, std::uint32_t c) {
   const PageLayout& l = im.layout;
-  REQUIRE(l.directory_offset(c) + 4 <= l.page_size);
-  return word_at(im, l.directory_page(c), l.directory_offset(c));
+  const int x = int(c % std::uint32_t(g.res[0])), y = int(c / std::uint32_t(g.res[0]) % std::uint32_t(g.res[1])),
+            z = int(c / std::uint32_t(g.res[0]) / std::uint32_t(g.res[1]));
+  const std::uint32_t key = l.directory_key(g, x, y, z);
+  REQUIRE(l.directory_offset(key) + 4 <= l.page_size);
+  REQUIRE(l.directory_page(key) < l.directory_first + l.directory_pages);
+  return word_at(im, l.directory_page(key), l.directory_offset(key));
 }
 
 /// Cell c as the image holds it: an empty cell's distance, or the ids it
@@ -37,9 +43,9 @@ struct CellRecord {
   std::vector<std::uint32_t> ids;
 };
 
-CellRecord record_of(const PagedImage& im, std::uint32_t c) {
+CellRecord record_of(const PagedImage& im, const core::GridInfo& g, std::uint32_t c) {
   const PageLayout& l = im.layout;
-  const DirectoryEntry e = entry_of(im, c);
+  const DirectoryEntry e = entry_of(im, g, c);
   CellRecord r;
   switch (e & kEmptyCell) {  // the top two bits
     case kEmptyCell:
@@ -74,14 +80,17 @@ CellRecord record_of(const PagedImage& im, std::uint32_t c) {
 
 }  // namespace
 
-TEST_CASE("paged database: every object is found in its page, byte for byte, for page sizes 64 B to 4 KiB") {
+TEST_CASE("paged database: every object is found in its page, byte for byte, for page sizes 64 B to 4 KiB, "
+          "either directory order") {
   std::uint32_t seen_empty = 0, seen_single = 0, seen_listed = 0;
-  for (auto [name, size] : {std::pair{"teapot", 2}, std::pair{"rings", 1}, std::pair{"balls", 1}}) {
+  for (auto [name, size] : {std::pair{"teapot", 2}, std::pair{"rings", 1}, std::pair{"balls", 1}})
+  for (const DirectoryOrder order : {DirectoryOrder::kLinear, DirectoryOrder::kBricked}) {
     const testing::BuiltScene b = testing::build_spd(name, size);
     for (std::uint32_t ps : {64u, 128u, 1024u, 4096u}) {
       CAPTURE(name);
       CAPTURE(ps);
-      const PagedImage im = build_paged_image(b.db, b.grid, ps);
+      CAPTURE(directory_order_name(order));
+      const PagedImage im = build_paged_image(b.db, b.grid, ps, nullptr, order);
       const PageLayout& l = im.layout;
       CHECK(l.pages == l.directory_pages + l.list_pages + l.primitive_pages + l.normals_pages);
       CHECK(im.pages.size() == std::size_t(l.pages) * ps);
@@ -92,7 +101,7 @@ TEST_CASE("paged database: every object is found in its page, byte for byte, for
       for (std::uint32_t c = 0; c < b.grid.info.cell_count(); ++c) {
         const std::vector<std::uint32_t> expect(b.grid.cell_primitives.begin() + b.grid.cell_start[c],
                                                 b.grid.cell_primitives.begin() + b.grid.cell_start[c + 1]);
-        const CellRecord r = record_of(im, c);
+        const CellRecord r = record_of(im, b.grid.info, c);
         REQUIRE(!r.packed);
         REQUIRE(r.ids == expect);
         REQUIRE(r.empty == expect.empty());
@@ -111,7 +120,14 @@ TEST_CASE("paged database: every object is found in its page, byte for byte, for
       CHECK(l.single_cells == single);
       CHECK(l.listed_cells == listed);
       CHECK(l.list_ids == ids);
-      CHECK(l.directory_pages == (b.grid.info.cell_count() * 4 + ps - 1) / ps);
+      if (order == DirectoryOrder::kLinear) {
+        CHECK(l.directory_pages == (b.grid.info.cell_count() * 4 + ps - 1) / ps);
+      } else {  // a page per brick
+        const core::CellBricks& k = l.bricks;
+        CHECK(std::size_t(k.cells()) <= ps / 4);
+        CHECK(l.directory_pages == std::uint32_t(k.bricks(b.grid.info, 0) * k.bricks(b.grid.info, 1) *
+                                                 k.bricks(b.grid.info, 2)));
+      }
       CHECK(l.object_bytes == b.db.primitives.size() * 64 + b.db.vertex_normals.size() * 36 +
                                   std::size_t(b.grid.info.cell_count()) * 4 + std::size_t(listed + ids) * 4);
       // Records equal the database's; none crosses a page boundary.
@@ -137,7 +153,7 @@ TEST_CASE("paged database: a list (header and ids) that fits in a page is never 
   const PagedImage im = build_paged_image(b.db, b.grid, 64);  // 16 words per page
   std::size_t long_lists = 0;
   for (std::uint32_t c = 0; c < b.grid.info.cell_count(); ++c) {
-    const CellRecord r = record_of(im, c);
+    const CellRecord r = record_of(im, b.grid.info, c);
     if (r.empty || r.single) continue;
     const std::uint32_t words = 1 + r.count;  // the header and the ids
     if (words <= 16) CHECK(r.first_page == r.last_page);
@@ -186,7 +202,7 @@ TEST_CASE("paged database: packed cells (--pack-cells) hold their blocks in the 
       for (std::uint32_t c = 0; c < b.grid.info.cell_count(); ++c) {
         const std::uint32_t n = b.grid.cell_start[c + 1] - b.grid.cell_start[c];
         const std::uint32_t k0 = blocks.start[c], k1 = blocks.start[c + 1];
-        const CellRecord r = record_of(im, c);
+        const CellRecord r = record_of(im, b.grid.info, c);
         if (k0 == k1) {  // unpacked: the list as before
           REQUIRE(!r.packed);
           REQUIRE(r.ids.size() == n);
