@@ -8,6 +8,8 @@
 //   bench: alternates sequential (thread CPU time of render_image) and svm
 //   --nodes 1 (the node's busy_s), checks the images are equal, prints
 //   the medians and minima and their ratios.
+// SVM1_DIRECTORY_ORDER=bricked (or linear, the default) sets svm's
+// --directory-order.
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -41,6 +43,7 @@ int main(int argc, char** argv) {
     sp.machine.nodes = 1;
     sp.machine.node_memory = std::size_t(1) << 30;
     sp.pack_min = pack;
+    if (const char* o = std::getenv("SVM1_DIRECTORY_ORDER")) sp.directory_order = svm::parse_directory_order(o);
     return svm::render_svm(db, grid, sp);
   };
   auto cpu = [] { timespec t; clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t); return t.tv_sec + 1e-9 * t.tv_nsec; };
