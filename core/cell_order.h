@@ -24,9 +24,9 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <span>
-#include <vector>
 
 #include "core/grid.h"
 
@@ -66,15 +66,16 @@ struct CellBricks {
 /// meets per unit of length (sum over the axes of 1 / dims[a]) times the
 /// directory's growth over the linear order (its bricks' pages against the
 /// cells' entries). A cube-like brick that tiles the grid with little
-/// padding wins. Deterministic; O(slots^2) work.
+/// padding wins. Deterministic; O(slots log slots) shapes tried. Throws
+/// std::invalid_argument for slots < 1.
 CellBricks choose_cell_bricks(const GridInfo& g, std::int32_t slots);
 
-/// The replicated tables of a bricked walk, walk_grid's bricked order (file comment): for each axis a,
-/// K_a[c] for c in [0, res[a]) and the key's change for a step from the
-/// cell before boundary b to the cell after it, up (+1 direction) and down
-/// (-1), for b in [0, res[a]] (the walk indexes them with its next
-/// boundary, 1 <= b < res[a]; the ends are 0). Plain words in one buffer,
-/// so a node can keep them in its arena.
+/// The replicated tables of a bricked walk, walk_grid's bricked order (file
+/// comment): for each axis a, K_a[c] for c in [0, res[a]) and the key's
+/// change for a step across boundary b (between cells b - 1 and b), up
+/// (+1 direction) and down (-1), for b in [0, res[a]] (the walk indexes
+/// them with the boundary it crosses, 1 <= b < res[a]; the ends are 0).
+/// Plain words in one buffer, so a node can keep them in its arena.
 struct CellKeyTables {
   /// Words needed for grid `g`: per axis, res + 2 (res + 1).
   static std::size_t words(const GridInfo& g) {

@@ -14,6 +14,9 @@
 // and, for shading (shade.h), per-object data beside the primitives:
 //   const Material& material(std::uint32_t id) const;
 //   const TriangleNormals& vertex_normals(std::uint32_t id) const;
+// A view whose cell directory is not in the linear cell order also offers
+//   const CellKeyTables& cell_order() const;  // cell_order.h
+// and then gets each cell by its key in that order (svm's bricked directory).
 // DirectView (direct_view.h) is the plain-array one. A reference a view
 // returns may be valid only until the view's next call (svm's PagedView
 // evicts pages): callers keep a copy of what they need across calls, and
