@@ -53,7 +53,7 @@ TEST_CASE("pareto: exact duplicates of a front point are all on the front") {
   CHECK(pareto_front(p) == std::vector<std::size_t>{0, 1});
 }
 
-TEST_CASE("pareto: NaN costs are never on the front; infinite error counts as worst") {
+TEST_CASE("pareto: NaN costs are never on the front, infinite error counts as worst") {
   const std::vector<CostPoint> p = {{1.0, NAN}, {NAN, 0.0}, {2.0, INFINITY}, {3.0, 0.5}, {4.0, INFINITY}};
   // {2, inf} is the fastest valid point, so nothing dominates it; {4, inf} is dominated.
   CHECK(pareto_front(p) == std::vector<std::size_t>{2, 3});

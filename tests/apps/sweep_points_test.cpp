@@ -67,7 +67,7 @@ TEST_CASE("sweep points: A..B:N% gives N evenly spaced cache sizes") {
   CHECK(p[2].fraction == doctest::Approx(0.70));
 }
 
-TEST_CASE("sweep points: a trailing % applies to bare numbers; pages, max and repeats") {
+TEST_CASE("sweep points: a trailing % applies to bare numbers, pages, max and repeats") {
   const std::vector<CachePoint> p = parse_cache_points("1,2,5%,204p,max,5");
   CHECK(labels(p) == std::vector<std::string>{"1%", "2%", "5%", "204p", "max"});
   CHECK(p[0].fraction == doctest::Approx(0.01));

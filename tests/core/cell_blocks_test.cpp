@@ -49,7 +49,7 @@ struct Comparison {
 
 }  // namespace
 
-TEST_CASE("cell blocks: a packed cell holds its list's triangles in order, lane by lane; other cells hold none") {
+TEST_CASE("cell blocks: a packed cell holds its list's triangles in order, lane by lane, other cells hold none") {
   const Scene scene = load_scene({"tetra:4", 0});
   const Database db = make_database(scene);
   const Grid grid = build_grid(db);

@@ -72,7 +72,7 @@ TEST_CASE("cost model: costs stay non-negative when the data would pull one belo
   CHECK(fitted.unit_s[1] == 0);
 }
 
-TEST_CASE("cost model: seconds are the counts weighted by the unit costs; the built-in model is non-negative") {
+TEST_CASE("cost model: seconds are the counts weighted by the unit costs, the built-in model is non-negative") {
   RayCounts rays;
   rays.primary = 10;
   rays.shadow = 4;
@@ -80,7 +80,10 @@ TEST_CASE("cost model: seconds are the counts weighted by the unit costs; the bu
   t.cells_visited = 100;
   t.triangle_tests = 30;
   const CostModel m = known_model();
-  const double expected = 10 * 1e-9 + 4 * 2e-9 + 100 * 5e-9 + 30 * 6e-9;
+  auto unit = [&](CostFeature f) { return m.unit_s[std::size_t(f)]; };
+  const double expected = 10 * unit(CostFeature::kPrimaryRay) + 4 * unit(CostFeature::kShadowRay) +
+                          100 * unit(CostFeature::kCell) + 30 * unit(CostFeature::kTriangleTest);
+  CHECK(expected > 0);
   CHECK(m.seconds(rays, t) == doctest::Approx(expected).epsilon(1e-12));
   for (double u : default_cost_model().unit_s) CHECK(u >= 0);
   CHECK(default_cost_model().unit_s[std::size_t(CostFeature::kPrimaryRay)] > 0);

@@ -17,7 +17,7 @@
 
 using namespace raynode::core;
 
-TEST_CASE("embree view: renders equal the grid's; depth, normal and colour exact where the same shape is hit") {
+TEST_CASE("embree view: renders equal the grid's, depth, normal and colour exact where the same shape is hit") {
   for (const char* spec : {"teapot:2", "mount:1", "rings:1", "balls:1", "tetra:3"}) {
     CAPTURE(spec);
     const Scene scene = load_scene({spec, 0});

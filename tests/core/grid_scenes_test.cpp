@@ -79,7 +79,7 @@ TEST_CASE("grid: every SPD reference scene agrees with Embree (zero mismatches)"
 // 4.3 units away; the float test's ray-space rounding (~2^-24 x 4.3) is then
 // a barycentric error of ~3e-5, beyond the referee's old relative margin
 // (1e-5 / |cos|), which counted this float-ambiguous ray as a mismatch.
-TEST_CASE("grid: tetra-s9 primary rays agree with Embree; the referee allows for the float test's rounding far away") {
+TEST_CASE("grid: tetra-s9 primary rays agree with Embree, the referee allows for the float test's rounding far away") {
   RAYNODE_REQUIRE_SCENES(dir);
   const Scene scene = read_nff((dir / "spd" / "tetra-s9.nff.gz").string());
   const Database db = make_database(scene);

@@ -200,7 +200,7 @@ TEST_CASE("intersect: an open cylinder lets rays in through its ends: along the 
   CHECK_FALSE(cone({{0, 0, 3}, {0.1f, 0, -1}, 0, kInfinity}, base, 1, apex, 1, t));
 }
 
-TEST_CASE("intersect: a cone is hit at the analytic distance; its other nappe and the parts beyond its ends are missed") {
+TEST_CASE("intersect: a cone is hit at the analytic distance, its other nappe and the parts beyond its ends are missed") {
   // Base radius 1 at z = 0, apex radius 0 at z = 1: radius 1 - z.
   const Vec3 base{0, 0, 0}, apex{0, 0, 1};
   float t = 0;

@@ -93,7 +93,7 @@ TEST_CASE("render AOV: primitive is the NFF shape's file-order index, not the tr
   for (float v : r.primitive.pixels) CHECK((v == -1.0f || v == 1.0f || v == 2.0f || v == 3.0f || v == 4.0f));
 }
 
-TEST_CASE("render AOV: normal is the unit shading normal facing the eye; depth the eye distance") {
+TEST_CASE("render AOV: normal is the unit shading normal facing the eye, depth the eye distance") {
   const Scene scene = aov_scene();
   const Database db = make_database(scene);
   const Grid grid = build_grid(db);
@@ -148,7 +148,7 @@ TEST_CASE("render AOV: seen from behind, normals still face the eye") {
   CHECK(pn.x < 0.0f);  // the leaning patch normal, flipped
 }
 
-TEST_CASE("render AOV: every mode and spp give the same AOVs; the progress counter ends at width x height") {
+TEST_CASE("render AOV: every mode and spp give the same AOVs, the progress counter ends at width x height") {
   const Scene scene = aov_scene();
   const Database db = make_database(scene);
   const Grid grid = build_grid(db);

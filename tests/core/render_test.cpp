@@ -98,7 +98,7 @@ TEST_CASE("render: tetra (Ks = 0, T = 0) casts only primary and shadow rays and 
   CHECK(r.stats.traversal.cells_visited > 0u);
 }
 
-TEST_CASE("render: a mirror (Ks > 0) casts reflected rays; max depth and min weight stop them") {
+TEST_CASE("render: a mirror (Ks > 0) casts reflected rays, max depth and min weight stop them") {
   Scene s = looking_down(5.0f);
   Material mirror;
   mirror.color = {0.5f, 0.5f, 0.5f};

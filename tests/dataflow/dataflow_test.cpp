@@ -112,7 +112,7 @@ TEST_CASE("dataflow: AOVs equal sequential and the region AOV names the region o
   }
 }
 
-TEST_CASE("dataflow: with --queue-capacity 1 rays spill to the host and come back; nothing is lost") {
+TEST_CASE("dataflow: with --queue-capacity 1 rays spill to the host and come back, nothing is lost") {
   for (auto [name, size] : {std::pair{"rings", 1}, std::pair{"mount", 2}}) {
     const testing::BuiltScene b = testing::build_spd(name, size);
     core::RenderParams rp;

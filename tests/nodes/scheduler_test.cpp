@@ -62,7 +62,7 @@ TEST_CASE("scheduler: disabled for a single node or a negative window") {
   CHECK(b.yield_point(3, 1e9));
 }
 
-TEST_CASE("scheduler: a node awaiting a reply holds the others back; resuming inside a work unit ignores the window") {
+TEST_CASE("scheduler: a node awaiting a reply holds the others back, resuming inside a work unit ignores the window") {
   std::vector<std::uint32_t> woken;
   Scheduler s(3, 2, 0.1, [&](std::uint32_t n) { woken.push_back(n); });
   CHECK(s.try_run(0, 0.0));

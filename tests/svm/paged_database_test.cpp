@@ -148,7 +148,7 @@ TEST_CASE("paged database: every object is found in its page, byte for byte, for
   CHECK(seen_listed > 0);
 }
 
-TEST_CASE("paged database: a list (header and ids) that fits in a page is never split; longer lists run on page after page") {
+TEST_CASE("paged database: a list (header and ids) that fits in a page is never split, longer lists run on page after page") {
   const testing::BuiltScene b = testing::build_spd("teapot", 3);
   const PagedImage im = build_paged_image(b.db, b.grid, 64);  // 16 words per page
   std::size_t long_lists = 0;

@@ -122,7 +122,7 @@ TEST_CASE("svm --pack-cells: paged triangle blocks give the sequential image for
   }
 }
 
-TEST_CASE("svm: AOVs are identical to sequential's; the node map names a working node for every pixel") {
+TEST_CASE("svm: AOVs are identical to sequential's, the node map names a working node for every pixel") {
   const testing::BuiltScene b = testing::build_spd("teapot", 2);
   SvmParams p = small_params(5, 2);
   p.render.depth_aov = p.render.normal_aov = p.render.primitive_aov = true;
@@ -151,7 +151,7 @@ TEST_CASE("svm: AOVs are identical to sequential's; the node map names a working
   CHECK(pages_sum == double(t.pixel_pages));
 }
 
-TEST_CASE("svm: the tracer's page accesses do not depend on node count or cache; faults do, and every fault is served") {
+TEST_CASE("svm: the tracer's page accesses do not depend on node count or cache, faults do, and every fault is served") {
   const testing::BuiltScene b = testing::build_spd("rings", 1);
   std::uint64_t accesses = 0, pixel_pages = 0, misses_small = 0, misses_big = 0;
   for (std::uint32_t n : {1u, 4u, 9u})
@@ -281,7 +281,7 @@ TEST_CASE("svm: a database too big for the nodes stops at once, naming the sizes
   CHECK_NOTHROW(render_svm(b.db, b.grid, p));
 }
 
-TEST_CASE("svm: a requested cache that does not fit is refused with the sizes; a fraction above 1 is refused") {
+TEST_CASE("svm: a requested cache that does not fit is refused with the sizes, a fraction above 1 is refused") {
   const testing::BuiltScene b = testing::build_spd("tetra", 6);
   SvmParams p = small_params(4, 300);
   p.machine.node_memory = 256 * 1024;
