@@ -4,6 +4,8 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
 #include <bit>
 #include <cerrno>
 #include <cstring>
@@ -30,18 +32,37 @@ std::uint64_t list_run_bytes(const core::Grid& grid, const core::CellBlocks* blo
   return n < 2 ? 0 : (1 + n) * sizeof(std::uint32_t);
 }
 
-/// The lists segment: every listed cell's run, a list that does not fit
-/// in the rest of the current page but fits in one page on a fresh page
-/// (the file comment's rule); place(cell, byte address of its header).
-/// Returns the segment's used bytes; throws std::length_error past the
-/// 1 GiB a directory entry can address.
+/// Calls f(cell) for every cell of `g` in the order of its directory keys
+/// in `l` (l.directory_order, l.bricks): the linear order, or brick by
+/// brick, each brick's cells in linear order.
+template <class F>
+void for_each_cell_in_key_order(const PageLayout& l, const core::GridInfo& g, F&& f) {
+  if (l.directory_order == DirectoryOrder::kLinear) {
+    for (std::uint32_t c = 0; c < g.cell_count(); ++c) f(c);
+    return;
+  }
+  const std::array<std::int32_t, 3>& d = l.bricks.dims;
+  for (std::int32_t z0 = 0; z0 < g.res[2]; z0 += d[2])
+    for (std::int32_t y0 = 0; y0 < g.res[1]; y0 += d[1])
+      for (std::int32_t x0 = 0; x0 < g.res[0]; x0 += d[0])
+        for (std::int32_t z = z0; z < std::min(z0 + d[2], g.res[2]); ++z)
+          for (std::int32_t y = y0; y < std::min(y0 + d[1], g.res[1]); ++y)
+            for (std::int32_t x = x0; x < std::min(x0 + d[0], g.res[0]); ++x) f(g.cell_index(x, y, z));
+}
+
+/// The lists segment: every listed cell's run, cells in `l`'s key order
+/// (so that a directory page's cells have their lists together), a list
+/// that does not fit in the rest of the current page but fits in one page
+/// on a fresh page (the file comment's rule); place(cell, byte address of
+/// its header). Returns the segment's used bytes; throws std::length_error
+/// past the 1 GiB a directory entry can address.
 template <class Place>
-std::uint64_t place_lists(const core::Grid& grid, const core::CellBlocks* blocks, std::uint32_t page_size,
-                          Place&& place) {
+std::uint64_t place_lists(const PageLayout& l, const core::Grid& grid, const core::CellBlocks* blocks,
+                          std::uint32_t page_size, Place&& place) {
   std::uint64_t cursor = 0;
-  for (std::uint32_t c = 0; c < grid.info.cell_count(); ++c) {
+  for_each_cell_in_key_order(l, grid.info, [&](std::uint32_t c) {
     const std::uint64_t bytes = list_run_bytes(grid, blocks, c);
-    if (bytes == 0) continue;
+    if (bytes == 0) return;
     const std::uint64_t room = page_size - cursor % page_size;
     if (bytes > room && bytes <= page_size) cursor += room;  // keep a short list in one page
     if (cursor + bytes > std::uint64_t(kMaxEntryValue) + 1)
@@ -50,21 +71,22 @@ std::uint64_t place_lists(const core::Grid& grid, const core::CellBlocks* blocks
                                           (std::uint64_t(kMaxEntryValue) + 1) >> 20, grid.references()));
     place(c, std::uint32_t(cursor));
     cursor += bytes;
-  }
+  });
   return cursor;
 }
 
 /// The blocks segment: every packed cell's run (header and blocks, the
-/// file comment's rule); place(cell, byte address of its header). Returns
-/// the segment's used bytes; throws std::length_error past the 1 GiB a
-/// directory entry can address.
+/// file comment's rule), cells in `l`'s key order; place(cell, byte
+/// address of its header). Returns the segment's used bytes; throws
+/// std::length_error past the 1 GiB a directory entry can address.
 template <class Place>
-std::uint64_t place_packed(const core::CellBlocks& blocks, std::uint32_t page_size, Place&& place) {
+std::uint64_t place_packed(const PageLayout& l, const core::GridInfo& g, const core::CellBlocks& blocks,
+                           std::uint32_t page_size, Place&& place) {
   const std::uint64_t block = sizeof(core::TriangleBlock), per_page = page_size / block;
   std::uint64_t cursor = 0;
-  for (std::uint32_t c = 0; c + 1 < blocks.start.size(); ++c) {
+  for_each_cell_in_key_order(l, g, [&](std::uint32_t c) {
     const std::uint64_t n = blocks.start[c + 1] - blocks.start[c];
-    if (n == 0) continue;
+    if (n == 0) return;
     const std::uint64_t bytes = kPackedHeaderBytes + n * block, in_page = cursor % page_size;
     if (in_page != 0 && bytes > page_size - in_page) cursor += page_size - in_page;  // a fresh page
     if (cursor > kMaxEntryValue)
@@ -74,12 +96,12 @@ std::uint64_t place_packed(const core::CellBlocks& blocks, std::uint32_t page_si
     place(c, std::uint32_t(cursor));
     if (bytes <= page_size) {
       cursor += bytes;
-      continue;
+      return;
     }
     // Longer than a page: whole blocks after the header, then per_page a page.
     const std::uint64_t rest = n - (page_size - kPackedHeaderBytes) / block;
     cursor += page_size + (rest / per_page) * page_size + (rest % per_page) * block;
-  }
+  });
   return cursor;
 }
 
@@ -150,15 +172,18 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
   l.primitive_shift = std::uint32_t(std::countr_zero(page_size / std::uint32_t(sizeof(core::Primitive))));
   l.normals_per_page = page_size / std::uint32_t(sizeof(core::TriangleNormals));
 
-  const std::uint64_t list_bytes = place_lists(grid, blocks, page_size, [](std::uint32_t, std::uint32_t) {});
-  const std::uint64_t block_bytes = blocks ? place_packed(*blocks, page_size, [](std::uint32_t, std::uint32_t) {}) : 0;
+  l.directory_order = order;
+  if (order == DirectoryOrder::kBricked)
+    l.bricks = core::choose_cell_bricks(grid.info, std::int32_t(1u << l.directory_shift));
+
+  const std::uint64_t list_bytes = place_lists(l, grid, blocks, page_size, [](std::uint32_t, std::uint32_t) {});
+  const std::uint64_t block_bytes =
+      blocks ? place_packed(l, grid.info, *blocks, page_size, [](std::uint32_t, std::uint32_t) {}) : 0;
   if (block_bytes > 0xffffffffull)  // the blocks' byte addresses are 32-bit
     throw std::length_error(fmt::format("svm: the packed cells need more than 4 GiB ({} blocks)", blocks->blocks.size()));
   const std::uint64_t block_pages = pages_for(block_bytes, page_size);
-  l.directory_order = order;
   std::uint64_t dir_pages = (std::uint64_t(l.cells) + (1u << l.directory_shift) - 1) >> l.directory_shift;
   if (order == DirectoryOrder::kBricked) {
-    l.bricks = core::choose_cell_bricks(grid.info, std::int32_t(1u << l.directory_shift));
     dir_pages = l.bricks.keys(grid.info) >> l.directory_shift;
     if (l.bricks.keys(grid.info) > 0x7fffffffull)
       throw std::length_error(fmt::format("svm: a bricked directory of {} entries does not fit 31-bit keys",
@@ -228,7 +253,7 @@ PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, s
     else if (end - begin == 1 && !is_packed(blocks, c)) put(entry(c), kSingleCell | grid.cell_primitives[begin]);
   }
   std::byte* lists = at(l.list_first, 0);
-  place_lists(grid, blocks, page_size, [&](std::uint32_t c, std::uint32_t address) {
+  place_lists(l, grid, blocks, page_size, [&](std::uint32_t c, std::uint32_t address) {
     const std::uint32_t begin = grid.cell_start[c], end = grid.cell_start[c + 1];
     put(entry(c), address);
     put(lists + address, end - begin);
@@ -236,7 +261,7 @@ PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, s
   });
   if (blocks) {
     std::byte* runs = at(l.block_first, 0);
-    place_packed(*blocks, page_size, [&](std::uint32_t c, std::uint32_t header) {
+    place_packed(l, g, *blocks, page_size, [&](std::uint32_t c, std::uint32_t header) {
       put(entry(c), kPackedCell | header);
       put(runs + header, grid.cell_start[c + 1] - grid.cell_start[c]);  // the rest of the header stays zero
       for (std::uint32_t k = blocks->start[c]; k < blocks->start[c + 1]; ++k)

@@ -21,7 +21,9 @@
 //              run of blocks;
 //   lists      for each unpacked cell that lists two primitives or more, a
 //              header word (how many) followed by the primitive ids (4
-//              bytes each), cells in cell order. A list that does not fit
+//              bytes each), cells in the directory's key order (so that
+//              a bricked directory page's cells have their lists
+//              together). A list that does not fit
 //              in the rest of the current page but fits in one page starts
 //              on a fresh page, a longer list continues page after page (a
 //              chain of per-page pieces, each an object in one page; the
@@ -32,7 +34,8 @@
 //   blocks     only with --pack-cells N (off by default, as in the paper):
 //              each packed cell's run, a 32-byte header (its triangle
 //              count, then zeros) and its 320-byte core::TriangleBlocks
-//              (core/cell_blocks.h), cells in cell order; a run that fits
+//              (core/cell_blocks.h), cells in the directory's key
+//              order; a run that fits
 //              in the rest of the current page goes there, any other
 //              starts on a fresh page, and one longer than a page goes on
 //              at the next page's first byte with as many whole blocks as
