@@ -4,10 +4,10 @@
 
 #include <cmath>
 #include <csignal>
-#include <set>
 #include <stdexcept>
 #include <string>
 #include <tuple>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -133,20 +133,29 @@ TEST_CASE("svm: AOVs are identical to sequential's, the node map names a working
   CHECK(testing::same_bytes(r.render.depth, seq.depth));
   CHECK(testing::same_bytes(r.render.normal, seq.normal));
   CHECK(testing::same_bytes(r.render.primitive, seq.primitive));
-  std::set<int> nodes_seen;
+  std::vector<std::uint64_t> pixels_of(5, 0);
   double pages_sum = 0;
   for (int y = 0; y < p.render.height; ++y)
     for (int x = 0; x < p.render.width; ++x) {
       const float id = *r.node.at(x, y);
       REQUIRE(id >= 0);
       REQUIRE(id < 5);
-      nodes_seen.insert(int(id));
+      ++pixels_of[std::size_t(id)];
       const float pages = *r.pages.at(x, y);
       REQUIRE(pages >= 0);
       if (std::isfinite(*r.render.depth.at(x, y))) REQUIRE(pages >= 3);  // a hit: directory, list, primitive
       pages_sum += pages;
     }
-  CHECK(nodes_seen.size() == 5);
+  // Each node's pixels in the map are the pixels it rendered. (Which nodes
+  // render how many follows the node threads' timing: a node started late
+  // may have had its items stolen, so no node count is asserted.)
+  std::size_t working = 0;
+  for (std::size_t i = 0; i < 5; ++i) {
+    CAPTURE(i);
+    CHECK(pixels_of[i] == r.work[i].pixels);
+    working += pixels_of[i] > 0;
+  }
+  CHECK(working >= 2);
   const PagerStats t = r.pager_total();
   CHECK(pages_sum == double(t.pixel_pages));
 }
