@@ -221,23 +221,24 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
     core::ShadingScratch& scratch = *s.scratch;
     const bool first = s.render.any_aov();
     ctx.set_work_meter(&NodeState::work_seconds, &s);
+    // The work farm over this node's view (linear or bricked directory).
     auto farm = [&](const auto& view) {
-    return nodes::run_work_farm(
-        ctx, s.submap, params.item_w, params.item_h,
-        [&](NodeContext& c, const Rect& r) {
-          float* o = s.batch.add(c, r, pixel_layout.channels);
-          for (int y = r.y0; y < r.y1; ++y)
-            for (int x = r.x0; x < r.x1; ++x) {
-              pager.begin_pixel();
-              const core::PixelResult px =
-                  core::render_pixel(view, shading, s.camera, x, y, s.render.spp, first, scratch);
-              pixel_layout.pack(px, o);
-              if (pages_channel >= 0) o[pages_channel] = float(pager.pixel_pages());
-              o += pixel_layout.channels;
-            }
-          pager.end_pixel();
-        },
-        [&](NodeContext&, const nodes::Message& msg) { return pager.serve(msg); }, &s.batch);
+      return nodes::run_work_farm(
+          ctx, s.submap, params.item_w, params.item_h,
+          [&](NodeContext& c, const Rect& r) {
+            float* o = s.batch.add(c, r, pixel_layout.channels);
+            for (int y = r.y0; y < r.y1; ++y)
+              for (int x = r.x0; x < r.x1; ++x) {
+                pager.begin_pixel();
+                const core::PixelResult px =
+                    core::render_pixel(view, shading, s.camera, x, y, s.render.spp, first, scratch);
+                pixel_layout.pack(px, o);
+                if (pages_channel >= 0) o[pages_channel] = float(pager.pixel_pages());
+                o += pixel_layout.channels;
+              }
+            pager.end_pixel();
+          },
+          [&](NodeContext&, const nodes::Message& msg) { return pager.serve(msg); }, &s.batch);
     };
     s.work = layout.directory_order == DirectoryOrder::kBricked
                  ? farm(BrickedPagedView(pager, s.grid, s.materials.span(), s.cell_order))
