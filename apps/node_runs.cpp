@@ -64,14 +64,14 @@ void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) 
   c.add_option("--repeat", o.repeat, "Runs per point; the one with the lowest T_p is kept (best of)")
       ->check(CLI::Range(1, 100))
       ->capture_default_str();
-  if (set.page_size)
+  if (set.page_size) {
     c.add_option("--page-size", o.page_size,
                  "svm: bytes per page, a power of two from 64 (the paper: 1024)")
         ->capture_default_str();
-  if (set.page_size)
     c.add_option("--directory-order", o.directory_order, kDirectoryOrderHelp)
         ->check(CLI::IsMember({"auto", "linear", "bricked"}))
         ->capture_default_str();
+  }
   if (set.dataflow) {
     c.add_option("--subsample", o.subsample, "dataflow: load estimate traces one pixel per NxN block")
         ->check(CLI::Range(1, 4096))

@@ -57,8 +57,8 @@ void for_each_cell_in_key_order(const PageLayout& l, const core::GridInfo& g, F&
 /// its header). Returns the segment's used bytes; throws std::length_error
 /// past the 1 GiB a directory entry can address.
 template <class Place>
-std::uint64_t place_lists(const PageLayout& l, const core::Grid& grid, const core::CellBlocks* blocks,
-                          std::uint32_t page_size, Place&& place) {
+std::uint64_t place_lists(const PageLayout& l, const core::Grid& grid, const core::CellBlocks* blocks, Place&& place) {
+  const std::uint32_t page_size = l.page_size;
   std::uint64_t cursor = 0;
   for_each_cell_in_key_order(l, grid.info, [&](std::uint32_t c) {
     const std::uint64_t bytes = list_run_bytes(grid, blocks, c);
@@ -81,7 +81,8 @@ std::uint64_t place_lists(const PageLayout& l, const core::Grid& grid, const cor
 /// std::length_error past the 1 GiB a directory entry can address.
 template <class Place>
 std::uint64_t place_packed(const PageLayout& l, const core::GridInfo& g, const core::CellBlocks& blocks,
-                           std::uint32_t page_size, Place&& place) {
+                           Place&& place) {
+  const std::uint32_t page_size = l.page_size;
   const std::uint64_t block = sizeof(core::TriangleBlock), per_page = page_size / block;
   std::uint64_t cursor = 0;
   for_each_cell_in_key_order(l, g, [&](std::uint32_t c) {
@@ -176,9 +177,9 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
   if (order == DirectoryOrder::kBricked)
     l.bricks = core::choose_cell_bricks(grid.info, std::int32_t(1u << l.directory_shift));
 
-  const std::uint64_t list_bytes = place_lists(l, grid, blocks, page_size, [](std::uint32_t, std::uint32_t) {});
+  const std::uint64_t list_bytes = place_lists(l, grid, blocks, [](std::uint32_t, std::uint32_t) {});
   const std::uint64_t block_bytes =
-      blocks ? place_packed(l, grid.info, *blocks, page_size, [](std::uint32_t, std::uint32_t) {}) : 0;
+      blocks ? place_packed(l, grid.info, *blocks, [](std::uint32_t, std::uint32_t) {}) : 0;
   if (block_bytes > 0xffffffffull)  // the blocks' byte addresses are 32-bit
     throw std::length_error(fmt::format("svm: the packed cells need more than 4 GiB ({} blocks)", blocks->blocks.size()));
   const std::uint64_t block_pages = pages_for(block_bytes, page_size);
@@ -253,7 +254,7 @@ PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, s
     else if (end - begin == 1 && !is_packed(blocks, c)) put(entry(c), kSingleCell | grid.cell_primitives[begin]);
   }
   std::byte* lists = at(l.list_first, 0);
-  place_lists(l, grid, blocks, page_size, [&](std::uint32_t c, std::uint32_t address) {
+  place_lists(l, grid, blocks, [&](std::uint32_t c, std::uint32_t address) {
     const std::uint32_t begin = grid.cell_start[c], end = grid.cell_start[c + 1];
     put(entry(c), address);
     put(lists + address, end - begin);
@@ -261,7 +262,7 @@ PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, s
   });
   if (blocks) {
     std::byte* runs = at(l.block_first, 0);
-    place_packed(l, g, *blocks, page_size, [&](std::uint32_t c, std::uint32_t header) {
+    place_packed(l, g, *blocks, [&](std::uint32_t c, std::uint32_t header) {
       put(entry(c), kPackedCell | header);
       put(runs + header, grid.cell_start[c + 1] - grid.cell_start[c]);  // the rest of the header stays zero
       for (std::uint32_t k = blocks->start[c]; k < blocks->start[c + 1]; ++k)
