@@ -645,10 +645,11 @@ void register_render_command(CLI::App& app) {
       ->capture_default_str();
   c->add_option("--work-grants", o->work_grants,
                 "replicated, svm: what a busy node grants a work request: item (the paper: one work item from "
-                "the far end of its submap) or half (the far half of its remaining item rows, or of its last "
+                "the far end of its submap), nearest (one work item, the one nearest the requester's last, so "
+                "that its items lie together) or half (the far half of its remaining item rows, or of its last "
                 "row's items, as one rectangle that the requester renders as its new submap and grants from in "
                 "turn: a requester's pixels stay together, so its cache and svm's pages serve more of them)")
-      ->check(CLI::IsMember({"item", "half"}))
+      ->check(CLI::IsMember({"item", "nearest", "half"}))
       ->capture_default_str();
   c->add_option("--schedule-window", o->schedule_window_us,
                 "Node modes: virtual-time scheduling window in microseconds: a node this far ahead of a waiting "

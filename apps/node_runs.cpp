@@ -44,9 +44,10 @@ void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) 
       ->check(CLI::IsMember({"ring", "last-grantor"}))
       ->capture_default_str();
   c.add_option("--work-grants", o.work_grants,
-               "replicated, svm: what a busy node grants: item (the paper: one work item) or half (half its "
-               "remaining item rows as a rectangle the requester takes as its submap)")
-      ->check(CLI::IsMember({"item", "half"}))
+               "replicated, svm: what a busy node grants: item (the paper: one work item), nearest (one work item, "
+               "the one nearest the requester's last) or half (half its remaining item rows as a rectangle the "
+               "requester takes as its submap)")
+      ->check(CLI::IsMember({"item", "nearest", "half"}))
       ->capture_default_str();
   c.add_option("--schedule-window", o.schedule_window_us,
                "Virtual-time scheduling window in microseconds (negative = off, the OS schedules the node threads)")

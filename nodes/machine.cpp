@@ -359,10 +359,11 @@ const char* work_request_route_name(WorkRequestRoute r) {
 WorkGrant parse_work_grant(const std::string& text) {
   if (text == "item") return WorkGrant::kItem;
   if (text == "half") return WorkGrant::kHalf;
-  throw std::invalid_argument("work grants are item or half, got '" + text + "'");
+  if (text == "nearest") return WorkGrant::kNearest;
+  throw std::invalid_argument("work grants are item, nearest or half, got '" + text + "'");
 }
 
-const char* work_grant_name(WorkGrant g) { return g == WorkGrant::kHalf ? "half" : "item"; }
+const char* work_grant_name(WorkGrant g) { return g == WorkGrant::kHalf ? "half" : g == WorkGrant::kNearest ? "nearest" : "item"; }
 
 std::size_t parse_bytes(const std::string& text) {
   std::size_t i = 0;

@@ -180,9 +180,9 @@ const char* compute_clock_name(ComputeClock c);
 WorkRequestRoute parse_work_request_route(const std::string& text);
 /// "ring" or "last-grantor".
 const char* work_request_route_name(WorkRequestRoute r);
-/// "item" or "half" (--work-grants). Throws std::invalid_argument naming the text.
+/// "item", "nearest" or "half" (--work-grants). Throws std::invalid_argument naming the text.
 WorkGrant parse_work_grant(const std::string& text);
-/// "item" or "half".
+/// "item", "nearest" or "half".
 const char* work_grant_name(WorkGrant g);
 
 /// Parses a byte size: "4MiB", "512KiB", "1GiB", "4M", "1048576" (bytes).

@@ -58,8 +58,11 @@ enum class WorkRequestRoute : std::uint8_t { kRing, kLastGrantor };
 /// remaining item rows (within one row, half of its items) as one
 /// rectangle, which the requester renders as its new submap and may in
 /// turn grant from. kHalf keeps a requester's pixels together, so the pages
-/// it fetches serve many of them (svm), and needs fewer requests.
-enum class WorkGrant : std::uint8_t { kItem, kHalf };
+/// it fetches serve many of them (svm), and needs fewer requests. kNearest
+/// grants one item, as kItem, but the one nearest the requester's last
+/// item (the request carries its centre): a requester's items lie next to
+/// each other and to its own submap, so its cached pages serve them.
+enum class WorkGrant : std::uint8_t { kItem, kHalf, kNearest };
 
 /// Thrown inside node code when the run is being stopped because another
 /// participant failed (or the watchdog fired); Machine::run swallows it.

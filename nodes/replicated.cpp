@@ -79,8 +79,9 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
   // Fail early, with the sizes, when a copy cannot fit beside the mailbox.
   const core::DatabaseArrays host_arrays = core::DatabaseArrays::of(db, grid);
   const std::size_t copy_bytes = replicated_bytes_per_node(db, grid);
+  const std::vector<Rect> submaps = make_submaps(w, h, m.nodes);
   const std::size_t fixed = Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload + PixelBatch::bytes(m.max_payload) +
-                            sizeof(core::ShadingScratch);
+                            sizeof(core::ShadingScratch) + work_farm_bytes(m.work_grant, submaps, params.item_w, params.item_h);
   if (copy_bytes + fixed > m.node_memory)
     throw std::runtime_error(fmt::format(
         "replicated mode: the database needs {} per node ({} B, plus {} for the mailbox and buffers), "
@@ -95,7 +96,6 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
   if (rp.primitive_aov) out.render.primitive = core::Image(w, h, 1);
   if (params.node_aov) out.node = core::Image(w, h, 1);
 
-  const std::vector<Rect> submaps = make_submaps(w, h, m.nodes);
   std::vector<std::unique_ptr<NodeState>> states(m.nodes);
 
   // The host loads each node's memory: the load phase, outside virtual time.

@@ -59,14 +59,69 @@ Rect WorkPool::item(std::uint32_t index) const {
 }
 
 bool WorkPool::take_front(Rect& out) {
+  while (front_ < back_ && taken(front_)) ++front_, --taken_inside_;
   if (front_ >= back_) return false;
   out = item(front_++);
   return true;
 }
 
 bool WorkPool::take_back(Rect& out) {
+  while (front_ < back_ && taken(back_ - 1)) --back_, --taken_inside_;
   if (front_ >= back_) return false;
   out = item(--back_);
+  return true;
+}
+
+std::size_t WorkPool::taken_words(const Rect& area, std::int32_t item_w, std::int32_t item_h) {
+  if (area.empty()) return 0;
+  const std::size_t w = std::size_t(std::max(1, item_w)), h = std::size_t(std::max(1, item_h));
+  const std::size_t items = ((std::size_t(area.width()) + w - 1) / w) * ((std::size_t(area.height()) + h - 1) / h);
+  return (items + 63) / 64;
+}
+
+void WorkPool::allow_any_item(std::span<std::uint64_t> taken) {
+  const std::size_t need = taken_words(area_, item_w_, item_h_);
+  if (taken.size() < need)
+    throw std::invalid_argument(
+        fmt::format("WorkPool::allow_any_item: {} items need {} bitmap words, got {}", back_, need, taken.size()));
+  taken_ = taken.first(need);
+}
+
+bool WorkPool::take_nearest(std::int32_t x, std::int32_t y, Rect& out) {
+  if (x < 0 || y < 0 || taken_.empty()) return take_back(out);
+  if (remaining() == 0) return false;
+  // In each row (from the last), the first untaken item from column `col`
+  // rightwards and the first leftwards of it: the centres' distance grows
+  // with the column away from x's column on either side. Distances between
+  // doubled centres, exact in integers.
+  const std::int64_t tx = 2 * std::int64_t(x), ty = 2 * std::int64_t(y);
+  const std::int32_t col = std::clamp((x - area_.x0) / item_w_, 0, std::int32_t(cols_) - 1);
+  std::int64_t best_d = INT64_MAX;
+  std::uint32_t best = back_;
+  for (std::uint32_t row = (back_ - 1) / cols_ + 1; row-- > front_ / cols_;) {
+    const Rect first = item(row * cols_);
+    const std::int64_t dy = ty - (first.y0 + first.y1);
+    if (dy * dy > best_d) continue;
+    const std::uint32_t lo = std::max(front_, row * cols_), hi = std::min(back_, (row + 1) * cols_);
+    const std::uint32_t c = std::clamp(row * cols_ + std::uint32_t(col), lo, hi - 1);
+    auto consider = [&](std::uint32_t i) {
+      const Rect r = item(i);
+      const std::int64_t dx = tx - (r.x0 + r.x1), d = dx * dx + dy * dy;
+      if (d < best_d || (d == best_d && i > best)) best_d = d, best = i;
+    };
+    std::uint32_t right = c;
+    while (right < hi && taken(right)) ++right;
+    if (right < hi) consider(right);
+    std::uint32_t left = c;
+    while (left > lo && taken(left - 1)) --left;
+    if (left > lo) consider(left - 1);
+  }
+  if (best == back_) return false;
+  if (best + 1 == back_) return take_back(out);  // the ends move, the bitmap stays for the middle
+  if (best == front_) return take_front(out);
+  taken_[best >> 6] |= std::uint64_t(1) << (best & 63);
+  ++taken_inside_;
+  out = item(best);
   return true;
 }
 
@@ -86,6 +141,13 @@ bool WorkPool::take_back_half(Rect& out) {
   const Rect first = item(back_), last = item(old_back - 1);
   out = Rect{first.x0, first.y0, last.x1, last.y1};
   return true;
+}
+
+std::size_t work_farm_bytes(WorkGrant grant, std::span<const Rect> submaps, std::int32_t item_w, std::int32_t item_h) {
+  if (grant != WorkGrant::kNearest) return 0;
+  std::size_t words = 0;
+  for (const Rect& r : submaps) words = std::max(words, WorkPool::taken_words(r, item_w, item_h));
+  return words * sizeof(std::uint64_t);
 }
 
 WorkStats& WorkStats::operator+=(const WorkStats& o) {
@@ -166,7 +228,10 @@ class Farm {
         }
         Rect item;
         ctx_.charge(ctx_.network().service_s);
-        if (ctx_.work_grant() == WorkGrant::kHalf ? pool.take_back_half(item) : pool.take_back(item)) {
+        const WorkGrant rule = ctx_.work_grant();
+        if (rule == WorkGrant::kHalf      ? pool.take_back_half(item)
+            : rule == WorkGrant::kNearest ? pool.take_nearest(r.near_x, r.near_y, item)
+                                          : pool.take_back(item)) {
           ctx_.send(r.origin, MessageType::kWorkGrant, WorkGrantMsg{item}, {}, at);
           ++stats.grants_given;
           stats.pixels_granted += std::uint64_t(item.area());
@@ -211,9 +276,16 @@ WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_
                         const OtherMessageHandler& other, PixelBatch* batch) {
   Farm farm(ctx, other);
   WorkPool pool(submap, item_w, item_h);
+  ArenaArray<std::uint64_t> taken;  // WorkGrant::kNearest: the items granted from the pool's middle
+  if (ctx.work_grant() == WorkGrant::kNearest) {
+    taken = ArenaArray<std::uint64_t>(ctx.arena(), WorkPool::taken_words(submap, item_w, item_h),
+                                      "its work items' taken bits");
+    pool.allow_any_item(taken.span());
+  }
   bool own_pool = true;  // false once the pool is a granted rectangle (WorkGrant::kHalf)
   bool have_grant = false, request_out = false, done = false;
   Rect grant;
+  std::int32_t last_x = -1, last_y = -1;
   Message m;
   while (!done) {
     // Interrupts first: requests are answered while we still have items.
@@ -239,6 +311,7 @@ WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_
     }
     Rect item;
     if (pool.take_front(item)) {
+      last_x = (item.x0 + item.x1) / 2, last_y = (item.y0 + item.y1) / 2;
       render_item(ctx, item);
       ++(own_pool ? farm.stats.items_own : farm.stats.items_received);
       farm.stats.pixels += std::uint64_t(item.area());
@@ -247,6 +320,7 @@ WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_
     if (have_grant) {
       have_grant = false;
       request_out = false;
+      last_x = (grant.x0 + grant.x1) / 2, last_y = (grant.y0 + grant.y1) / 2;
       render_item(ctx, grant);
       ++farm.stats.items_received;
       farm.stats.pixels += std::uint64_t(grant.area());
@@ -257,7 +331,7 @@ WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_
       NodeId first = ctx.topology().ring_next(ctx.id());
       if (ctx.work_request_route() == WorkRequestRoute::kLastGrantor && farm.last_grantor != kHost)
         first = farm.last_grantor;
-      ctx.send(first, MessageType::kWorkRequest, WorkRequestMsg{ctx.id(), 1, std::uint16_t(first)});
+      ctx.send(first, MessageType::kWorkRequest, WorkRequestMsg{ctx.id(), 1, std::uint16_t(first), last_x, last_y});
       ++farm.stats.requests_sent;
       request_out = true;
     }

@@ -3,8 +3,9 @@
 // each node owns a near-square submap of the image, renders it work item by
 // work item (default 3x3 pixels) from its near end, and when it runs dry
 // sends a work request around the ring embedded in the topology. A busy node
-// grants the requester work from the far end of its submap: one work item
-// (WorkGrant::kItem, the paper's rule and the default) or (kHalf) the far
+// grants the requester work from its submap: one work item from the far
+// end (WorkGrant::kItem, the paper's rule and the default), the one item
+// nearest the requester's last (kNearest), or (kHalf) the far
 // half of its remaining item rows as one rectangle, which the requester renders
 // as its new submap, item by item, and grants from in turn; an
 // idle node forwards the request to its ring successor; a request that
@@ -66,14 +67,28 @@ class WorkPool {
   /// when fewer than two remain or the last row is partly taken, half of
   /// the last row's items (at least one). False when nothing remains.
   bool take_back_half(Rect& rect);
-  std::uint32_t remaining() const { return back_ - front_; }
+  /// Words of the bitmap that take_nearest needs for a pool over `area`.
+  static std::size_t taken_words(const Rect& area, std::int32_t item_w, std::int32_t item_h);
+  /// Lets take_nearest take items from anywhere in the pool: `taken`
+  /// (taken_words() zeroed words, which must outlive the pool) marks them.
+  /// Throws std::invalid_argument when it is too short.
+  void allow_any_item(std::span<std::uint64_t> taken);
+  /// Takes the item whose centre lies nearest pixel (x, y) (WorkGrant::
+  /// kNearest; ties to the later item); take_back when x < 0 or no bitmap
+  /// was given. The front and back skip the items it took. O(rows + the
+  /// columns searched in them). False when nothing remains.
+  bool take_nearest(std::int32_t x, std::int32_t y, Rect& item);
+  std::uint32_t remaining() const { return back_ - front_ - taken_inside_; }
 
  private:
   Rect item(std::uint32_t index) const;
+  bool taken(std::uint32_t i) const { return !taken_.empty() && (taken_[i >> 6] >> (i & 63) & 1); }
   Rect area_;
   std::int32_t item_w_ = 1, item_h_ = 1;
   std::uint32_t cols_ = 0;
   std::uint32_t front_ = 0, back_ = 0;
+  std::uint32_t taken_inside_ = 0;    ///< items in [front_, back_) that take_nearest took
+  std::span<std::uint64_t> taken_;    ///< bit i: item i taken by take_nearest
 };
 
 /// Messages of the protocol (trivially copyable; wire size = sizeof).
@@ -81,6 +96,9 @@ struct WorkRequestMsg {
   NodeId origin;
   std::uint16_t hops;       ///< hops travelled so far
   std::uint16_t start = 0;  ///< the node where its walk round the ring began
+  /// The centre of the requester's last item (pixels; -1: none yet), for
+  /// WorkGrant::kNearest.
+  std::int32_t near_x = -1, near_y = -1;
 };
 static_assert(kMaxNodes <= 0xffff, "WorkRequestMsg holds node ids and hops in 16 bits");
 struct WorkGrantMsg {
@@ -111,6 +129,11 @@ struct WorkStats {
   double done_time_s = 0;              ///< virtual time the node's work ended
   WorkStats& operator+=(const WorkStats& o);
 };
+
+/// Arena bytes that run_work_farm allocates on a node whose submap is the
+/// largest of `submaps` under `grant` (WorkGrant::kNearest's taken bits; 0
+/// otherwise), for a mode's sum of a node's fixed memory.
+std::size_t work_farm_bytes(WorkGrant grant, std::span<const Rect> submaps, std::int32_t item_w, std::int32_t item_h);
 
 /// Handler for messages the farm does not know (svm's page requests...):
 /// returns false if it does not know them either (then the farm throws).

@@ -161,11 +161,13 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
 
   SvmResult out;
   out.layout = layout;
+  const std::vector<Rect> submaps = nodes::make_submaps(w, h, m.nodes);
   out.node_fixed_bytes = nodes::Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload +
                          pager_table_bytes(layout, 0) + sizeof(Pager) + in.materials.size_bytes() +
                          in.lights.size_bytes() + nodes::PixelBatch::bytes(m.max_payload) + sizeof(core::ShadingScratch) +
                          (order == DirectoryOrder::kBricked ? core::CellKeyTables::words(in.grid) * sizeof(std::int32_t) : 0) +
-                         message_reserve(m.max_payload);
+                         message_reserve(m.max_payload) +
+                         nodes::work_farm_bytes(m.work_grant, submaps, params.item_w, params.item_h);
   // Fail before starting, with the sizes, when a node cannot hold its part.
   std::vector<std::uint32_t> cache(m.nodes);
   SvmParams sized = params;
@@ -179,7 +181,6 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
   if (params.node_aov) out.node = core::Image(w, h, 1);
   if (params.pages_aov) out.pages = core::Image(w, h, 1);
 
-  const std::vector<Rect> submaps = nodes::make_submaps(w, h, m.nodes);
   std::vector<std::unique_ptr<NodeState>> states(m.nodes);
   HostPages& host_pages = image.pages;
 

@@ -93,6 +93,70 @@ TEST_CASE("work: a pool's half grants are rectangles of whole items, the far hal
   CHECK_FALSE(pool.take_back_half(r));
 }
 
+TEST_CASE("work: a pool's nearest grants take the remaining item nearest a point, and front and back skip them") {
+  // 31 x 29 pixels -> 11 x 10 items of 3x3 (the last column 1 pixel wide,
+  // the last row 2 high). Against a brute-force search over what remains.
+  const Rect area{4, 6, 35, 35};
+  WorkPool pool(area, 3, 3);
+  const std::uint32_t items = pool.remaining();
+  REQUIRE(items == 110);
+  std::vector<std::uint64_t> bits(WorkPool::taken_words(area, 3, 3), 0);
+  REQUIRE(bits.size() == 2);
+  CHECK_THROWS_AS(pool.allow_any_item(std::span<std::uint64_t>(bits).first(1)), std::invalid_argument);
+  pool.allow_any_item(bits);
+  // Every item of the area, and which are left.
+  std::vector<Rect> left;
+  {
+    WorkPool all(area, 3, 3);
+    Rect r;
+    while (all.take_front(r)) left.push_back(r);
+  }
+  auto drop = [&](const Rect& r) {
+    const auto it = std::find(left.begin(), left.end(), r);
+    REQUIRE(it != left.end());  // taken once
+    left.erase(it);
+  };
+  std::uint64_t seed = 12345;
+  auto next = [&](std::uint32_t n) {
+    seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+    return std::uint32_t((seed >> 33) % n);
+  };
+  Rect r;
+  for (int step = 0; !left.empty(); ++step) {
+    CAPTURE(step);
+    const std::uint32_t op = next(4);
+    if (op == 0) {
+      REQUIRE(pool.take_front(r));
+      CHECK(r == left.front());  // the first item left, in row-major order
+    } else if (op == 1) {
+      REQUIRE(pool.take_back(r));
+      CHECK(r == left.back());
+    } else {
+      // A pixel anywhere around the area, outside it too.
+      const std::int32_t x = std::int32_t(next(area.x1 + 10)), y = std::int32_t(next(area.y1 + 10));
+      CAPTURE(x);
+      CAPTURE(y);
+      REQUIRE(pool.take_nearest(x, y, r));
+      auto d2 = [&](const Rect& q) {
+        const std::int64_t dx = 2 * x - (q.x0 + q.x1), dy = 2 * y - (q.y0 + q.y1);
+        return dx * dx + dy * dy;
+      };
+      std::int64_t best = INT64_MAX;
+      for (const Rect& q : left) best = std::min(best, d2(q));
+      CHECK(d2(r) == best);
+    }
+    drop(r);
+    CHECK(pool.remaining() == left.size());
+  }
+  CHECK_FALSE(pool.take_front(r));
+  CHECK_FALSE(pool.take_back(r));
+  CHECK_FALSE(pool.take_nearest(10, 10, r));
+  // Without a bitmap, or with no point, a nearest grant is a back grant.
+  WorkPool plain(area, 3, 3);
+  REQUIRE(plain.take_nearest(5, 7, r));
+  CHECK(r == Rect{34, 33, 35, 35});
+}
+
 namespace {
 
 /// Runs the farm on n nodes, under the model clock, with a render_item
@@ -156,7 +220,7 @@ FarmRun run_farm(std::uint32_t n, int w, int h, bool skewed, WorkRequestRoute ro
 }  // namespace
 
 TEST_CASE("work: every pixel is rendered exactly once for N in {1, 2, 3, 7, 16, 64}, and idle nodes get work") {
-  for (WorkGrant grant : {WorkGrant::kItem, WorkGrant::kHalf})
+  for (WorkGrant grant : {WorkGrant::kItem, WorkGrant::kNearest, WorkGrant::kHalf})
   for (WorkRequestRoute route : {WorkRequestRoute::kRing, WorkRequestRoute::kLastGrantor})
   for (std::uint32_t n : {1u, 2u, 3u, 7u, 16u, 64u}) {
     CAPTURE(work_grant_name(grant));
@@ -168,7 +232,7 @@ TEST_CASE("work: every pixel is rendered exactly once for N in {1, 2, 3, 7, 16, 
     WorkStats total;
     for (const WorkStats& s : run.stats) total += s;
     CHECK(total.pixels == 90u * 60u);
-    if (grant == WorkGrant::kItem) {
+    if (grant != WorkGrant::kHalf) {
       CHECK(total.items_received == total.grants_given);  // a grant is one item, rendered by its receiver
     } else {
       CHECK(total.items_received >= total.grants_given);  // a grant is one item or more

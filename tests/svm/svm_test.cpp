@@ -62,26 +62,31 @@ TEST_CASE("svm: images are bit-identical to sequential for N in {1,2,3,4,7,16,64
   }
 }
 
-TEST_CASE("svm: with half work grants (--work-grants half) images stay bit-identical to sequential") {
+TEST_CASE("svm: with half or nearest work grants (--work-grants) images stay bit-identical to sequential") {
   for (const auto& [name, size, tessellate] : {std::tuple{"teapot", 2, 0}, std::tuple{"tetra", 3, 0}}) {
     const testing::BuiltScene b = testing::build_spd(name, size, tessellate);
     core::RenderParams rp = small_params(1, 0).render;
     rp.width = rp.height = 40;
     const core::RenderResult seq = core::render(b.db, b.grid, rp);
-    for (nodes::WorkRequestRoute route : {nodes::WorkRequestRoute::kRing, nodes::WorkRequestRoute::kLastGrantor})
+    // Nearest grants with the route they are meant for (a request carries
+    // the requester's last item to the node that granted it).
+    for (const auto& [grant, route] : {std::pair{nodes::WorkGrant::kHalf, nodes::WorkRequestRoute::kRing},
+                                       std::pair{nodes::WorkGrant::kHalf, nodes::WorkRequestRoute::kLastGrantor},
+                                       std::pair{nodes::WorkGrant::kNearest, nodes::WorkRequestRoute::kLastGrantor}})
       for (std::uint32_t n : {3u, 16u, 64u})
         for (std::uint32_t cache : {1u, 0u}) {
           CAPTURE(name);
+          CAPTURE(nodes::work_grant_name(grant));
           CAPTURE(nodes::work_request_route_name(route));
           CAPTURE(n);
           CAPTURE(cache);
           SvmParams p = small_params(n, cache);
           p.render = rp;
           p.page_size = 256;
-          p.machine.work_grant = nodes::WorkGrant::kHalf;
+          p.machine.work_grant = grant;
           p.machine.work_request_route = route;
           const SvmResult r = render_svm(b.db, b.grid, p);
-          CHECK(r.run.work_grants == "half");
+          CHECK(r.run.work_grants == nodes::work_grant_name(grant));
           CHECK(testing::same_bytes(r.render.color, seq.color));
           CHECK(r.pager_total().pixels == std::uint64_t(rp.width * rp.height));
           nodes::WorkStats w;
