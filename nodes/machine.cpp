@@ -363,7 +363,14 @@ WorkGrant parse_work_grant(const std::string& text) {
   throw std::invalid_argument("work grants are item, nearest or half, got '" + text + "'");
 }
 
-const char* work_grant_name(WorkGrant g) { return g == WorkGrant::kHalf ? "half" : g == WorkGrant::kNearest ? "nearest" : "item"; }
+const char* work_grant_name(WorkGrant g) {
+  switch (g) {
+    case WorkGrant::kHalf: return "half";
+    case WorkGrant::kNearest: return "nearest";
+    case WorkGrant::kItem: break;
+  }
+  return "item";
+}
 
 std::size_t parse_bytes(const std::string& text) {
   std::size_t i = 0;

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstring>
 #include <thread>
+#include <utility>
 #include <stdexcept>
 
 namespace raynode::nodes {
@@ -40,12 +41,21 @@ std::vector<Rect> make_submaps(std::int32_t width, std::int32_t height, std::uin
   return out;
 }
 
+namespace {
+/// The item columns and rows of `area` in items of item_w x item_h (at
+/// least 1x1; the last column and row may be narrower).
+std::pair<std::uint32_t, std::uint32_t> item_grid(const Rect& area, std::int32_t item_w, std::int32_t item_h) {
+  if (area.empty()) return {0, 0};
+  const std::int32_t w = std::max(1, item_w), h = std::max(1, item_h);
+  return {std::uint32_t((area.width() + w - 1) / w), std::uint32_t((area.height() + h - 1) / h)};
+}
+}  // namespace
+
 WorkPool::WorkPool(const Rect& area, std::int32_t item_w, std::int32_t item_h)
     : area_(area), item_w_(std::max(1, item_w)), item_h_(std::max(1, item_h)) {
-  if (area.empty()) return;
-  cols_ = std::uint32_t((area.width() + item_w_ - 1) / item_w_);
-  const std::uint32_t rows = std::uint32_t((area.height() + item_h_ - 1) / item_h_);
-  back_ = cols_ * rows;
+  const auto [cols, rows] = item_grid(area, item_w, item_h);
+  cols_ = cols;
+  back_ = cols * rows;
 }
 
 Rect WorkPool::item(std::uint32_t index) const {
@@ -73,10 +83,8 @@ bool WorkPool::take_back(Rect& out) {
 }
 
 std::size_t WorkPool::taken_words(const Rect& area, std::int32_t item_w, std::int32_t item_h) {
-  if (area.empty()) return 0;
-  const std::size_t w = std::size_t(std::max(1, item_w)), h = std::size_t(std::max(1, item_h));
-  const std::size_t items = ((std::size_t(area.width()) + w - 1) / w) * ((std::size_t(area.height()) + h - 1) / h);
-  return (items + 63) / 64;
+  const auto [cols, rows] = item_grid(area, item_w, item_h);
+  return (std::size_t(cols) * rows + 63) / 64;
 }
 
 void WorkPool::allow_any_item(std::span<std::uint64_t> taken) {
@@ -285,7 +293,8 @@ WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_
   bool own_pool = true;  // false once the pool is a granted rectangle (WorkGrant::kHalf)
   bool have_grant = false, request_out = false, done = false;
   Rect grant;
-  std::int32_t last_x = -1, last_y = -1;
+  std::int32_t last_x = -1, last_y = -1;  // the centre of our last item (WorkGrant::kNearest's point)
+  auto rendering = [&](const Rect& r) { last_x = (r.x0 + r.x1) / 2, last_y = (r.y0 + r.y1) / 2; };
   Message m;
   while (!done) {
     // Interrupts first: requests are answered while we still have items.
@@ -311,7 +320,7 @@ WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_
     }
     Rect item;
     if (pool.take_front(item)) {
-      last_x = (item.x0 + item.x1) / 2, last_y = (item.y0 + item.y1) / 2;
+      rendering(item);
       render_item(ctx, item);
       ++(own_pool ? farm.stats.items_own : farm.stats.items_received);
       farm.stats.pixels += std::uint64_t(item.area());
@@ -320,7 +329,7 @@ WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_
     if (have_grant) {
       have_grant = false;
       request_out = false;
-      last_x = (grant.x0 + grant.x1) / 2, last_y = (grant.y0 + grant.y1) / 2;
+      rendering(grant);
       render_item(ctx, grant);
       ++farm.stats.items_received;
       farm.stats.pixels += std::uint64_t(grant.area());
