@@ -111,9 +111,10 @@ void run_bench_nodes(const NodesBenchOptions& o) {
   core::GridParams gp;
   gp.skip_empty = o.run.skip_empty;
   const core::Grid grid = core::build_grid(db, gp);
-  fmt::print("{} {} {}x{}, network {}, node memory {}, clock {}, {} hardware threads, best of {}\n", o.mode,
-             o.source.spec, o.run.width, o.run.height, o.run.network, o.run.node_memory, o.run.clock,
-             std::thread::hardware_concurrency(), o.run.repeat);
+  fmt::print("{} {} {}x{}, network {}, node memory {}, clock {}, submaps {}, work grants {}, requests {}, {} hardware "
+             "threads, best of {}\n",
+             o.mode, o.source.spec, o.run.width, o.run.height, o.run.network, o.run.node_memory, o.run.clock,
+             o.run.submaps, o.run.work_grants, o.run.work_requests, std::thread::hardware_concurrency(), o.run.repeat);
   // The sequential tracer on the same image: what a one-node run is compared with.
   double sequential_s = 0;
   {
@@ -176,6 +177,8 @@ void run_bench_nodes(const NodesBenchOptions& o) {
     std::ofstream f(o.json_path);
     f << nlohmann::json{{"scene", o.source.spec},       {"mode", o.mode},   {"network", o.run.network},
                         {"clock", o.run.clock},         {"width", o.run.width}, {"height", o.run.height},
+                        {"submaps", o.run.submaps},     {"work_grants", o.run.work_grants},
+                        {"work_requests", o.run.work_requests},
                         {"sequential_s", sequential_s}, {"rows", rows}}
              .dump(2)
       << "\n";

@@ -74,6 +74,8 @@ struct RenderOptions {
   std::string clock = "cpu";
   std::string work_requests = "ring";
   std::string work_grants = "item";
+  std::string submaps = "square";
+  bool submaps_given = false;
   // svm
   std::uint32_t page_size = 1024;
   std::string directory_order = "auto";  ///< auto, linear or bricked
@@ -103,6 +105,14 @@ void parse_cache(const std::string& text, svm::SvmParams& params) {
       throw UsageError("--cache must be at least 1 page (a whole number), got '" + text + "'");
     params.cache_pages = std::uint32_t(v);
   }
+}
+
+/// --submaps and --subsample as the control-oriented modes' submap params.
+nodes::SubmapParams submap_params(const RenderOptions& o) {
+  nodes::SubmapParams p;
+  p.rule = nodes::parse_submap_rule(o.submaps);  // CLI checked the name
+  p.subsample = o.subsample;
+  return p;
 }
 
 bool is_node_mode(const std::string& mode) { return mode == "replicated" || mode == "svm" || mode == "dataflow"; }
@@ -288,6 +298,8 @@ core::RenderResult render_frame(const RenderOptions& o, const core::Database& db
   if (o.pack_given && o.pack_min > 0 && (o.mode == "replicated" || o.mode == "dataflow"))
     throw UsageError("--pack-cells " + std::to_string(o.pack_min) + " is for --mode sequential, shared or svm; --mode " +
                      o.mode + " walks the paper's object lists (leave --pack-cells out)");
+  if (o.submaps_given && o.mode != "replicated" && o.mode != "svm")
+    throw UsageError("--submaps is for --mode replicated or svm's static submaps, not --mode " + o.mode);
   if (o.directory_order_given && o.mode != "svm")
     throw UsageError("--directory-order is for --mode svm's paged cell directory, not --mode " + o.mode);
   if (o.mode == "dataflow") {
@@ -316,9 +328,11 @@ core::RenderResult render_frame(const RenderOptions& o, const core::Database& db
     rp.render = params;
     rp.machine = machine_params(o);
     std::tie(rp.item_w, rp.item_h) = parse_work_item(o.work_item);
+    rp.submaps = submap_params(o);
     rp.node_aov = node_aov;
     nodes::ReplicatedResult r = nodes::render_replicated(db, *accel.grid, rp);
     extras.nodes = r.run.to_json(true);
+    extras.nodes["submaps"] = r.submaps.to_json();
     extras.nodes["database_bytes_per_node"] = r.database_bytes;
     fill_work_stats(r.work, r.tracing, r.run, o.nodes, extras.nodes);
     extras.node = std::move(r.node);
@@ -338,10 +352,12 @@ core::RenderResult render_frame(const RenderOptions& o, const core::Database& db
     }
     sp.pack_min = o.pack_given ? o.pack_min : 0;  // svm pages the paper's object lists unless asked
     parse_cache(o.cache, sp);
+    sp.submaps = submap_params(o);
     sp.node_aov = node_aov;
     sp.pages_aov = pages_aov;
     svm::SvmResult r = svm::render_svm(db, *accel.grid, sp);
     extras.nodes = r.run.to_json(true);
+    extras.nodes["submaps"] = r.submaps.to_json();
     fill_work_stats(r.work, r.tracing, r.run, o.nodes, extras.nodes);
     extras.svm = r.to_json();
     extras.node = std::move(r.node);
@@ -609,7 +625,8 @@ void register_render_command(CLI::App& app) {
                 "svm: page cache per node, N pages or P% of the database's pages (default: all the memory a node "
                 "has left after its home pages, page table and mailbox)");
   c->add_option("--subsample", o->subsample,
-                "dataflow: load estimate traces one pixel per NxN block (8 = the paper's 1.5%); --aov region "
+                "dataflow, and replicated/svm with --submaps balanced: the load estimate traces one pixel per NxN "
+                "block (8 = the paper's 1.5%); --aov region "
                 "(NAME.region.exr) shows the region of each primary hit, -1 on a miss")
       ->check(CLI::Range(1, 4096))
       ->capture_default_str();
@@ -651,6 +668,12 @@ void register_render_command(CLI::App& app) {
                 "turn: a requester's pixels stay together, so its cache and svm's pages serve more of them)")
       ->check(CLI::IsMember({"item", "nearest", "half"}))
       ->capture_default_str();
+  c->add_option("--submaps", o->submaps,
+                "replicated, svm: the nodes' static submaps: square (the paper: near-square parts of equal area) "
+                "or balanced (parts of near-equal cost, estimated by tracing one pixel per --subsample block on "
+                "the host first: fewer pixels move by work requests, so svm's nodes fault on fewer pages)")
+      ->check(CLI::IsMember({"square", "balanced"}))
+      ->capture_default_str();
   c->add_option("--schedule-window", o->schedule_window_us,
                 "Node modes: virtual-time scheduling window in microseconds: a node this far ahead of a waiting "
                 "one hands the CPU over (smaller = closer to a real parallel machine, more thread switches; "
@@ -676,6 +699,7 @@ void register_render_command(CLI::App& app) {
   c->callback([o, c] {
     o->pack_given = c->get_option("--pack-cells")->count() > 0;
     o->directory_order_given = c->get_option("--directory-order")->count() > 0;
+    o->submaps_given = c->get_option("--submaps")->count() > 0;
     run_render(*o);
   });
 }

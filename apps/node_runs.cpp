@@ -49,6 +49,15 @@ void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) 
                "requester takes as its submap)")
       ->check(CLI::IsMember({"item", "nearest", "half"}))
       ->capture_default_str();
+  c.add_option("--submaps", o.submaps,
+               "replicated, svm: the nodes' static submaps: square (the paper) or balanced (parts of near-equal "
+               "cost, estimated on the host by tracing one pixel per --subsample block)")
+      ->check(CLI::IsMember({"square", "balanced"}))
+      ->capture_default_str();
+  c.add_option("--subsample", o.subsample,
+               "dataflow, and --submaps balanced: the load estimate traces one pixel per NxN block")
+      ->check(CLI::Range(1, 4096))
+      ->capture_default_str();
   c.add_option("--schedule-window", o.schedule_window_us,
                "Virtual-time scheduling window in microseconds (negative = off, the OS schedules the node threads)")
       ->capture_default_str();
@@ -74,9 +83,6 @@ void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) 
         ->capture_default_str();
   }
   if (set.dataflow) {
-    c.add_option("--subsample", o.subsample, "dataflow: load estimate traces one pixel per NxN block")
-        ->check(CLI::Range(1, 4096))
-        ->capture_default_str();
     c.add_option("--partition", o.partition, "dataflow: balanced (median cuts on the estimated load) or equal")
         ->check(CLI::IsMember({"balanced", "equal"}))
         ->capture_default_str();
@@ -110,8 +116,9 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
     m.clock = nodes::parse_compute_clock(o.clock);
     m.work_request_route = nodes::parse_work_request_route(o.work_requests);
     m.work_grant = nodes::parse_work_grant(o.work_grants);
+    s.submaps.rule = nodes::parse_submap_rule(o.submaps);
   } catch (const std::invalid_argument& e) {
-    throw UsageError(std::string("--topology/--clock/--work-requests/--work-grants: ") + e.what());
+    throw UsageError(std::string("--topology/--clock/--work-requests/--work-grants/--submaps: ") + e.what());
   }
   m.timeout_s = o.timeout_s;
   m.schedule_window_s = o.schedule_window_us * 1e-6;
@@ -132,6 +139,7 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
     throw UsageError(std::string("--directory-order: ") + e.what());
   }
   s.subsample = o.subsample;
+  s.submaps.subsample = o.subsample;
   s.partition = dataflow::parse_partition(o.partition);
   s.queue_capacity = o.queue_capacity;
   s.repeat = o.repeat;
@@ -185,6 +193,7 @@ NodeRun run_node_mode(const core::Database& db, const core::Grid& grid, const st
       p.machine = mp;
       p.item_w = spec.item_w;
       p.item_h = spec.item_h;
+      p.submaps = spec.submaps;
       p.page_size = spec.page_size;
       p.directory_order = spec.directory_order;
       p.cache_pages = spec.cache_pages;
@@ -211,6 +220,7 @@ NodeRun run_node_mode(const core::Database& db, const core::Grid& grid, const st
       p.machine = mp;
       p.item_w = spec.item_w;
       p.item_h = spec.item_h;
+      p.submaps = spec.submaps;
       const nodes::ReplicatedResult r = nodes::render_replicated(db, grid, p);
       common(r);
       out.grants = grants_sum(r.work);

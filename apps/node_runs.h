@@ -30,6 +30,7 @@
 #include "core/render.h"
 #include "dataflow/dataflow.h"
 #include "nodes/machine.h"
+#include "nodes/submap_plan.h"
 #include "nodes/network.h"
 #include "svm/paged_database.h"
 
@@ -62,7 +63,8 @@ struct NodeRunOptions {
   std::string mail_wakeups = "auto";   ///< --mail-wakeups: auto, scheduled or immediate
   std::string clock = "cpu";            ///< cpu or model (nodes::ComputeClock)
   std::string work_requests = "ring";   ///< ring or last-grantor (nodes::WorkRequestRoute)
-  std::string work_grants = "item";     ///< item or half (nodes::WorkGrant)
+  std::string work_grants = "item";     ///< item, nearest or half (nodes::WorkGrant)
+  std::string submaps = "square";       ///< square or balanced (nodes::SubmapRule)
   double timeout_s = 0;                 ///< per run, wall seconds; 0 = none
   int repeat = 1;                       ///< runs per point; the lowest T_p is kept
   bool skip_empty = true;               ///< grid: empty-space jumps (core::GridParams::skip_empty)
@@ -70,7 +72,7 @@ struct NodeRunOptions {
   std::uint32_t page_size = 1024;       ///< bytes
   std::string directory_order = "auto"; ///< auto, linear or bricked (svm::parse_directory_order)
   // dataflow
-  int subsample = 8;                    ///< load estimate: one pixel per NxN block
+  int subsample = 8;                    ///< load estimate (and --submaps balanced's): one pixel per NxN block
   std::string partition = "balanced";   ///< balanced or equal
   std::uint32_t queue_capacity = 0;     ///< node mailbox slots; 0 = the mode's default
 };
@@ -78,7 +80,7 @@ struct NodeRunOptions {
 /// Which options add_node_run_options adds besides the machine's.
 struct NodeRunOptionSet {
   bool page_size = true;  ///< --page-size (svm)
-  bool dataflow = true;   ///< --subsample, --partition, --queue-capacity
+  bool dataflow = true;   ///< --partition, --queue-capacity
 };
 
 /// Adds --width, --height, --node-memory, --network, --network-scale,
@@ -96,6 +98,7 @@ struct NodeRunSpec {
   std::optional<svm::DirectoryOrder> directory_order;  ///< svm; nullopt = auto
   std::uint32_t cache_pages = 0;      ///< svm: frames per node; 0 = all free memory
   double cache_fraction = 0;          ///< svm: of the database's pages, used when > 0
+  nodes::SubmapParams submaps;        ///< replicated, svm
   int subsample = 8;                  ///< dataflow
   dataflow::PartitionKind partition = dataflow::PartitionKind::kBalanced;
   std::uint32_t queue_capacity = 0;   ///< dataflow

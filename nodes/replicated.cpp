@@ -79,7 +79,8 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
   // Fail early, with the sizes, when a copy cannot fit beside the mailbox.
   const core::DatabaseArrays host_arrays = core::DatabaseArrays::of(db, grid);
   const std::size_t copy_bytes = replicated_bytes_per_node(db, grid);
-  const std::vector<Rect> submaps = make_submaps(w, h, m.nodes);
+  const SubmapPlan plan = plan_submaps(db, grid, camera, rp, m.nodes, params.submaps, m.cost_model);
+  const std::vector<Rect>& submaps = plan.rects;
   const std::size_t fixed = Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload + PixelBatch::bytes(m.max_payload) +
                             sizeof(core::ShadingScratch) + work_farm_bytes(m.work_grant, submaps, params.item_w, params.item_h);
   if (copy_bytes + fixed > m.node_memory)
@@ -90,6 +91,7 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
 
   ReplicatedResult out;
   out.database_bytes = copy_bytes;
+  out.submaps = plan;
   out.render.color = core::Image(w, h, 3);
   if (rp.depth_aov) out.render.depth = core::Image(w, h, 1);
   if (rp.normal_aov) out.render.normal = core::Image(w, h, 3);

@@ -2,7 +2,8 @@
 // own arena and runs the sequential tracer on the pixels it is given — the
 // "without dataflow" row of the paper's Table 1, the reference the svm and
 // dataflow modes are measured against. Pixels are distributed as in svm
-// (work.h: square submaps plus work items stolen along the ring); the host
+// (work.h: square or balanced submaps plus work items stolen along the
+// ring); the host
 // gathers them into the frame.
 //
 // Place in the data flow: host Database + Grid -> setup copies the arrays
@@ -19,6 +20,7 @@
 #include "core/grid.h"
 #include "core/render.h"
 #include "nodes/machine.h"
+#include "nodes/submap_plan.h"
 #include "nodes/work.h"
 
 namespace raynode::nodes {
@@ -28,6 +30,7 @@ struct ReplicatedParams {
   MachineParams machine;      ///< nodes, memory, network, topology (payload sized automatically)
   std::int32_t item_w = 3;    ///< work item, pixels (--work-item WxH)
   std::int32_t item_h = 3;
+  SubmapParams submaps;       ///< the static submaps (--submaps, --subsample; submap_plan.h)
   bool node_aov = false;      ///< also produce the image of which node computed each pixel
 };
 
@@ -38,6 +41,7 @@ struct ReplicatedResult {
   std::vector<WorkStats> work;             ///< per node
   std::vector<core::RenderStats> tracing;  ///< per node
   std::size_t database_bytes = 0;          ///< bytes of each node's copy
+  SubmapPlan submaps;                      ///< the nodes' submaps and, if balanced, the estimate's cost
 };
 
 /// Bytes each node needs to hold the database copy: the arrays plus lights.

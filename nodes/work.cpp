@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <thread>
 #include <utility>
@@ -13,22 +14,47 @@ namespace raynode::nodes {
 
 namespace {
 
-void split(const Rect& r, std::uint32_t n, std::vector<Rect>& out) {
+/// The summed-area table of per-pixel costs: (width+1) x (height+1) sums.
+struct CostTable {
+  std::int32_t width;
+  std::span<const double> sat;
+  double sum(const Rect& r) const {
+    auto at = [&](std::int32_t x, std::int32_t y) { return sat[std::size_t(y) * std::size_t(width + 1) + std::size_t(x)]; };
+    return at(r.x1, r.y1) - at(r.x0, r.y1) - at(r.x1, r.y0) + at(r.x0, r.y0);
+  }
+};
+
+/// Cuts r's longer side for floor(n/2) : ceil(n/2) nodes, by area or (with
+/// `cost`) by cost, and recurses; appends the leaves in order.
+void split(const Rect& r, std::uint32_t n, const CostTable* cost, std::vector<Rect>& out) {
   if (n == 1) {
     out.push_back(r);
     return;
   }
-  const std::uint32_t a = n / 2, b = n - a;
-  Rect left = r, right = r;
-  if (r.width() >= r.height()) {
-    const std::int32_t cut = r.x0 + std::int32_t(std::int64_t(r.width()) * a / n);
-    left.x1 = right.x0 = cut;
-  } else {
-    const std::int32_t cut = r.y0 + std::int32_t(std::int64_t(r.height()) * a / n);
-    left.y1 = right.y0 = cut;
+  const std::uint32_t a = n / 2;
+  const bool vertical = r.width() >= r.height();
+  const std::int32_t lo = vertical ? r.x0 : r.y0, hi = vertical ? r.x1 : r.y1;
+  auto part = [&](std::int32_t cut, bool first) {
+    Rect p = r;
+    (vertical ? (first ? p.x1 : p.x0) : (first ? p.y1 : p.y0)) = cut;
+    return p;
+  };
+  std::int32_t cut = lo + std::int32_t(std::int64_t(hi - lo) * a / n);  // by area
+  if (const double total = cost ? cost->sum(r) : 0.0; total > 0) {
+    // The first cut whose first part holds at least a/n of the cost, or the
+    // one before it when that comes nearer; one pixel from either edge
+    // while the side has room.
+    const double want = total * double(a) / double(n);
+    std::int32_t l = lo, h = hi;
+    while (l < h) {
+      const std::int32_t mid = l + (h - l) / 2;
+      if (cost->sum(part(mid, true)) >= want) h = mid; else l = mid + 1;
+    }
+    if (l > lo && want - cost->sum(part(l - 1, true)) < cost->sum(part(l, true)) - want) --l;
+    cut = hi - lo >= 2 ? std::clamp(l, lo + 1, hi - 1) : l;
   }
-  split(left, a, out);
-  split(right, b, out);
+  split(part(cut, true), a, cost, out);
+  split(part(cut, false), n - a, cost, out);
 }
 
 }  // namespace
@@ -37,9 +63,42 @@ std::vector<Rect> make_submaps(std::int32_t width, std::int32_t height, std::uin
   if (n == 0) throw std::invalid_argument("make_submaps: n must be >= 1");
   std::vector<Rect> out;
   out.reserve(n);
-  split(Rect{0, 0, width, height}, n, out);
+  split(Rect{0, 0, width, height}, n, nullptr, out);
   return out;
 }
+
+std::vector<Rect> make_balanced_submaps(std::int32_t width, std::int32_t height, std::uint32_t n,
+                                        std::span<const double> pixel_cost) {
+  if (n == 0) throw std::invalid_argument("make_balanced_submaps: n must be >= 1");
+  if (pixel_cost.size() != std::size_t(width) * std::size_t(height))
+    throw std::invalid_argument(fmt::format("make_balanced_submaps: {} pixel costs for a {}x{} image",
+                                            pixel_cost.size(), width, height));
+  std::vector<double> sat(std::size_t(width + 1) * std::size_t(height + 1), 0.0);
+  for (std::int32_t y = 0; y < height; ++y) {
+    double row = 0;
+    for (std::int32_t x = 0; x < width; ++x) {
+      const double c = pixel_cost[std::size_t(y) * std::size_t(width) + std::size_t(x)];
+      if (!(c >= 0) || !std::isfinite(c))
+        throw std::invalid_argument(fmt::format("make_balanced_submaps: pixel ({}, {}) costs {}", x, y, c));
+      row += c;
+      sat[std::size_t(y + 1) * std::size_t(width + 1) + std::size_t(x + 1)] =
+          sat[std::size_t(y) * std::size_t(width + 1) + std::size_t(x + 1)] + row;
+    }
+  }
+  std::vector<Rect> out;
+  out.reserve(n);
+  const CostTable table{width, sat};
+  split(Rect{0, 0, width, height}, n, &table, out);
+  return out;
+}
+
+SubmapRule parse_submap_rule(const std::string& text) {
+  if (text == "square") return SubmapRule::kSquare;
+  if (text == "balanced") return SubmapRule::kBalanced;
+  throw std::invalid_argument("submaps are square or balanced, got '" + text + "'");
+}
+
+const char* submap_rule_name(SubmapRule r) { return r == SubmapRule::kBalanced ? "balanced" : "square"; }
 
 namespace {
 /// The item columns and rows of `area` in items of item_w x item_h (at

@@ -29,6 +29,7 @@
 #include <cstdint>
 #include <functional>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "nodes/machine.h"
@@ -46,12 +47,34 @@ struct Rect {
   bool operator==(const Rect&) const = default;
 };
 
+/// How the image is cut into the nodes' static submaps (`--submaps`).
+enum class SubmapRule : std::uint8_t {
+  kSquare,    ///< near-square, near-equal areas (make_submaps): the paper's
+  kBalanced,  ///< near-equal estimated cost (make_balanced_submaps over a host estimate, submap_plan.h)
+};
+/// "square" or "balanced"; throws std::invalid_argument naming the text otherwise.
+SubmapRule parse_submap_rule(const std::string& text);
+const char* submap_rule_name(SubmapRule r);
+
 /// Splits width x height into exactly `n` rectangles covering every pixel
 /// once, by recursive bisection of the longer side into parts proportional
 /// to floor(n/2) : ceil(n/2) nodes, so that every count (not only powers of
 /// two) gets near-square submaps of near-equal area. Rectangle i belongs to
 /// node i. When n exceeds the pixel count some rectangles are empty.
 std::vector<Rect> make_submaps(std::int32_t width, std::int32_t height, std::uint32_t n);
+
+/// make_submaps with each cut placed by cost instead of area
+/// (SubmapRule::kBalanced): each bisection cuts the longer side at the
+/// pixel column (row) where the first part's share of the rectangle's
+/// summed `pixel_cost` (width x height, row-major, >= 0) comes nearest
+/// floor(n/2)/n, one pixel from either edge while the side has room;
+/// a rectangle of zero cost is cut by area, as make_submaps does. Every
+/// pixel lies in exactly one rectangle; rectangle i belongs to node i.
+/// O(width x height + n log(width + height)). Throws
+/// std::invalid_argument for n = 0, a cost array of the wrong size or a
+/// negative or non-finite cost.
+std::vector<Rect> make_balanced_submaps(std::int32_t width, std::int32_t height, std::uint32_t n,
+                                        std::span<const double> pixel_cost);
 
 /// The not-yet-started work items of a rectangle, in row-major order of
 /// item_w x item_h blocks (the last row/column may be smaller). Taken from

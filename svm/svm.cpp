@@ -161,7 +161,8 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
 
   SvmResult out;
   out.layout = layout;
-  const std::vector<Rect> submaps = nodes::make_submaps(w, h, m.nodes);
+  out.submaps = nodes::plan_submaps(db, grid, in.camera, rp, m.nodes, params.submaps, m.cost_model);
+  const std::vector<Rect>& submaps = out.submaps.rects;
   out.node_fixed_bytes = nodes::Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload +
                          pager_table_bytes(layout, 0) + sizeof(Pager) + in.materials.size_bytes() +
                          in.lights.size_bytes() + nodes::PixelBatch::bytes(m.max_payload) + sizeof(core::ShadingScratch) +

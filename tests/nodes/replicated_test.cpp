@@ -1,6 +1,8 @@
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cstring>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "core/database.h"
@@ -8,6 +10,7 @@
 #include "core/render.h"
 #include "core/spd.h"
 #include "nodes/replicated.h"
+#include "nodes/submap_plan.h"
 #include "test_scenes.h"
 
 using namespace raynode;
@@ -114,5 +117,73 @@ TEST_CASE("replicated: under the model clock a node's busy time is exactly the m
       const ReplicatedResult r2 = render_replicated(b.db, b.grid, p);
       CHECK(r2.run.parallel_time_s == r1.run.parallel_time_s);
     }
+  }
+}
+
+TEST_CASE("submap plan: the host's estimate charges each block its traced pixel's modelled cost") {
+  const testing::BuiltScene b = testing::build_spd("teapot", 2);
+  core::RenderParams rp;
+  rp.width = 36;
+  rp.height = 20;
+  const core::Camera camera(core::render_view(b.db), rp.width, rp.height);
+  const core::CostModel model = core::default_cost_model();
+  // Every pixel traced once: the estimate's cost is the sequential render's modelled cost.
+  const core::RenderResult seq = core::render(b.db, b.grid, rp);
+  const PixelCostEstimate all = estimate_pixel_cost(b.db, b.grid, camera, rp, 1, model);
+  CHECK(all.pixels == 36u * 20u);
+  CHECK(all.rays == seq.stats.rays.total());
+  CHECK(all.model_s == doctest::Approx(model.seconds(seq.stats.rays, seq.stats.traversal)).epsilon(1e-9));
+  double sum = 0;
+  for (double c : all.cost) sum += c;
+  CHECK(sum == doctest::Approx(all.model_s).epsilon(1e-9));
+  // One pixel per 8x8 block (the last blocks clipped to the image): each
+  // block costs its traced pixel, the one at the block's centre.
+  const PixelCostEstimate est = estimate_pixel_cost(b.db, b.grid, camera, rp, 8, model);
+  CHECK(est.pixels == 5u * 3u);
+  double blocks = 0;
+  for (int by = 0; by < 20; by += 8)
+    for (int bx = 0; bx < 36; bx += 8) {
+      const int x1 = std::min(bx + 8, 36), y1 = std::min(by + 8, 20);
+      const double c = est.cost[std::size_t(by) * 36 + bx];
+      CHECK(c == all.cost[std::size_t((by + y1) / 2) * 36 + (bx + x1) / 2]);
+      for (int y = by; y < y1; ++y)
+        for (int x = bx; x < x1; ++x) CHECK(est.cost[std::size_t(y) * 36 + x] == c);
+      blocks += c;
+    }
+  CHECK(est.model_s == doctest::Approx(blocks).epsilon(1e-12));
+  // The teapot's pixels cost more than the background's.
+  const auto [lo, hi] = std::minmax_element(all.cost.begin(), all.cost.end());
+  CHECK(*hi > 3 * *lo);
+  CHECK_THROWS_AS(estimate_pixel_cost(b.db, b.grid, camera, rp, 0, model), std::invalid_argument);
+}
+
+TEST_CASE("replicated: balanced submaps keep the sequential image, and the plan reports its estimate") {
+  const testing::BuiltScene b = testing::build_spd("tetra", 3);
+  core::RenderParams rp;
+  rp.width = 40;
+  rp.height = 32;
+  const core::RenderResult seq = core::render(b.db, b.grid, rp);
+  for (std::uint32_t n : {3u, 16u}) {
+    CAPTURE(n);
+    ReplicatedParams p;
+    p.render = rp;
+    p.machine.nodes = n;
+    p.machine.node_memory = 8 * kMiB;
+    p.machine.timeout_s = 120;
+    p.submaps.rule = SubmapRule::kBalanced;
+    p.submaps.subsample = 4;
+    const ReplicatedResult r = render_replicated(b.db, b.grid, p);
+    CHECK(testing::same_bytes(r.render.color, seq.color));
+    std::uint64_t pixels = 0;
+    for (const WorkStats& w : r.work) pixels += w.pixels;
+    CHECK(pixels == 40u * 32u);
+    REQUIRE(r.submaps.rects.size() == n);
+    CHECK(r.submaps.rects != make_submaps(40, 32, n));  // the tetrahedron's pixels cost more than the sky's
+    CHECK(r.submaps.estimate.pixels == 10u * 8u);
+    CHECK(r.submaps.estimated_max_over_mean >= 1.0);
+    CHECK(r.submaps.estimate.cost.empty());  // dropped once the cuts are made
+    const nlohmann::json j = r.submaps.to_json();
+    CHECK(j["rule"] == "balanced");
+    CHECK(j["estimate"]["pixels"] == 80);
   }
 }

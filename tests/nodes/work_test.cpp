@@ -1,8 +1,10 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <span>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "nodes/machine.h"
@@ -33,6 +35,94 @@ TEST_CASE("work: submaps cover every pixel exactly once, near-equal and no thinn
           CHECK(double(std::max(r.width(), r.height())) <= 3.1 * double(std::min(r.width(), r.height())));
       }
     }
+}
+
+namespace {
+/// Summed cost of `r` in a width-wide row-major cost image.
+double rect_cost(const Rect& r, const std::vector<double>& cost, int w) {
+  double s = 0;
+  for (int y = r.y0; y < r.y1; ++y)
+    for (int x = r.x0; x < r.x1; ++x) s += cost[std::size_t(y) * w + x];
+  return s;
+}
+/// The largest part's cost over the mean part's.
+double max_over_mean(const std::vector<Rect>& maps, const std::vector<double>& cost, int w) {
+  double total = 0, most = 0;
+  for (const Rect& r : maps) {
+    const double c = rect_cost(r, cost, w);
+    total += c;
+    most = std::max(most, c);
+  }
+  return most / (total / double(maps.size()));
+}
+}  // namespace
+
+TEST_CASE("work: balanced submaps cover every pixel once and split the cost where square ones split the area") {
+  // Cost piled up round one point (a bright object off-centre), a floor of 1 elsewhere.
+  for (auto [w, h] : {std::pair{256, 256}, std::pair{300, 170}})
+    for (std::uint32_t n : {1u, 2u, 3u, 7u, 16u, 64u}) {
+      CAPTURE(w);
+      CAPTURE(h);
+      CAPTURE(n);
+      std::vector<double> cost(std::size_t(w) * h);
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+          const double dx = (x - 0.3 * w) / (0.2 * w), dy = (y - 0.6 * h) / (0.2 * h);
+          cost[std::size_t(y) * w + x] = 1.0 + 40.0 * std::exp(-(dx * dx + dy * dy));
+        }
+      const std::vector<Rect> maps = make_balanced_submaps(w, h, n, cost);
+      REQUIRE(maps.size() == n);
+      std::vector<int> cover(std::size_t(w) * h, 0);
+      for (const Rect& r : maps) {
+        CHECK_FALSE(r.empty());
+        for (int y = r.y0; y < r.y1; ++y)
+          for (int x = r.x0; x < r.x1; ++x) ++cover[std::size_t(y) * w + x];
+      }
+      CHECK(std::all_of(cover.begin(), cover.end(), [](int c) { return c == 1; }));
+      if (n == 1) continue;
+      // Square submaps leave the parts near the pile far above the mean;
+      // balanced ones come within a few percent (a cut moves a pixel line
+      // at a time, so not to the exact share).
+      const double balanced = max_over_mean(maps, cost, w), square = max_over_mean(make_submaps(w, h, n), cost, w);
+      CAPTURE(balanced);
+      CAPTURE(square);
+      CHECK(square > 1.5);
+      CHECK(balanced < (n <= 16 ? 1.05 : 1.2));
+    }
+}
+
+TEST_CASE("work: a two-node balanced cut lands where each side holds half the cost, and zero cost cuts by area") {
+  // Cost 1 in the left quarter's columns, 0.01 elsewhere: half the total
+  // lies left of column 65.9, so the cut is column 66.
+  const int w = 512, h = 100;
+  std::vector<double> cost(std::size_t(w) * h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) cost[std::size_t(y) * w + x] = x < 128 ? 1.0 : 0.01;
+  const std::vector<Rect> two = make_balanced_submaps(w, h, 2, cost);
+  CHECK(two[0] == Rect{0, 0, 66, h});
+  CHECK(two[1] == Rect{66, 0, w, h});
+  // Three nodes: the first part (one node) holds a third.
+  const std::vector<Rect> three = make_balanced_submaps(w, h, 3, cost);
+  const double total = rect_cost(Rect{0, 0, w, h}, cost, w);
+  CHECK(rect_cost(three[0], cost, w) == doctest::Approx(total / 3).epsilon(0.01));
+  // No cost at all: the same cuts as make_submaps.
+  const std::vector<double> zero(std::size_t(w) * h, 0.0);
+  for (std::uint32_t n : {1u, 2u, 5u, 64u}) CHECK(make_balanced_submaps(w, h, n, zero) == make_submaps(w, h, n));
+}
+
+TEST_CASE("work: balanced submaps refuse a bad node count or cost image, naming it") {
+  std::vector<double> cost(12, 1.0);
+  CHECK_THROWS_AS(make_balanced_submaps(4, 3, 0, cost), std::invalid_argument);
+  CHECK_THROWS_WITH_AS(make_balanced_submaps(4, 4, 2, cost), doctest::Contains("12 pixel costs for a 4x4 image"),
+                       std::invalid_argument);
+  cost[5] = -1;
+  CHECK_THROWS_WITH_AS(make_balanced_submaps(4, 3, 2, cost), doctest::Contains("pixel (1, 1) costs -1"),
+                       std::invalid_argument);
+  cost[5] = std::nan("");
+  CHECK_THROWS_AS(make_balanced_submaps(4, 3, 2, cost), std::invalid_argument);
+  CHECK(parse_submap_rule("balanced") == SubmapRule::kBalanced);
+  CHECK(std::string(submap_rule_name(parse_submap_rule("square"))) == "square");
+  CHECK_THROWS_WITH_AS(parse_submap_rule("round"), doctest::Contains("'round'"), std::invalid_argument);
 }
 
 TEST_CASE("work: a pool hands out items from both ends, each once, clipped to the area") {

@@ -97,6 +97,31 @@ TEST_CASE("svm: with half or nearest work grants (--work-grants) images stay bit
   }
 }
 
+TEST_CASE("svm: balanced submaps (--submaps balanced) keep the sequential image for every node count and cache") {
+  const testing::BuiltScene b = testing::build_spd("tetra", 3);
+  core::RenderParams rp = small_params(1, 0).render;
+  rp.width = rp.height = 40;
+  const core::RenderResult seq = core::render(b.db, b.grid, rp);
+  for (std::uint32_t n : {2u, 7u, 16u, 64u})
+    for (std::uint32_t cache : {1u, 0u}) {
+      CAPTURE(n);
+      CAPTURE(cache);
+      SvmParams p = small_params(n, cache);
+      p.render = rp;
+      p.page_size = 256;
+      p.submaps.rule = nodes::SubmapRule::kBalanced;
+      const SvmResult r = render_svm(b.db, b.grid, p);
+      CHECK(testing::same_bytes(r.render.color, seq.color));
+      CHECK(r.pager_total().pixels == std::uint64_t(rp.width * rp.height));
+      REQUIRE(r.submaps.rects.size() == n);
+      std::int64_t area = 0;
+      for (const nodes::Rect& m : r.submaps.rects) area += m.area();
+      CHECK(area == std::int64_t(rp.width) * rp.height);
+      CHECK(r.submaps.estimate.pixels == 5u * 5u);  // one per 8x8 block
+      CHECK(r.submaps.estimate.rays >= r.submaps.estimate.pixels);
+    }
+}
+
 TEST_CASE("svm --pack-cells: paged triangle blocks give the sequential image for every node count and cache") {
   // 512-byte pages hold one block each, so every packed cell of more than 8
   // triangles is visited in pieces, and a 1-page cache evicts between them.
