@@ -1,6 +1,8 @@
 // Work distribution over the pixels (the paper's control-oriented
 // scheduling, reused by replicated and svm modes; DESIGN.md, "svm"):
-// each node owns a near-square submap of the image, renders it work item by
+// each node owns a submap of the image (near-square parts of equal area, the
+// paper's, or with SubmapRule::kBalanced parts of near-equal estimated cost:
+// make_balanced_submaps, submap_plan.h), renders it work item by
 // work item (default 3x3 pixels) from its near end, and when it runs dry
 // sends a work request around the ring embedded in the topology. A busy node
 // grants the requester work from its submap: one work item from the far

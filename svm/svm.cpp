@@ -139,7 +139,8 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
   const int h = rp.height > 0 ? rp.height : cam_view.height;
 
   // The host lays the database out in pages. From here on the run sees only
-  // the image and the O(1) metadata (RunInput), never `db` or `grid`.
+  // the image and the O(1) metadata (RunInput), never `db` or `grid` (the
+  // host's submap estimate below reads them before the run starts).
   // With --pack-cells, the packed cells' triangle blocks are paged too.
   const DirectoryOrder order = params.directory_order.value_or(
       params.machine.nodes > 1 ? DirectoryOrder::kBricked : DirectoryOrder::kLinear);
@@ -161,6 +162,8 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
 
   SvmResult out;
   out.layout = layout;
+  // The host's work before the run: the submaps (balanced: after tracing
+  // its estimate over `db` and `grid`, outside virtual time).
   out.submaps = nodes::plan_submaps(db, grid, in.camera, rp, m.nodes, params.submaps, m.cost_model);
   const std::vector<Rect>& submaps = out.submaps.rects;
   out.node_fixed_bytes = nodes::Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload +

@@ -16,6 +16,18 @@
 using namespace raynode;
 using namespace raynode::nodes;
 
+namespace {
+/// n nodes of 8 MiB rendering `rp`, with a watchdog (a hang fails the test).
+ReplicatedParams params(const core::RenderParams& rp, std::uint32_t n) {
+  ReplicatedParams p;
+  p.render = rp;
+  p.machine.nodes = n;
+  p.machine.node_memory = 8 * kMiB;
+  p.machine.timeout_s = 120;
+  return p;
+}
+}  // namespace
+
 TEST_CASE("replicated: images and AOVs are bit-identical to sequential for N in {1, 2, 3, 7, 16, 64}") {
   for (auto [name, size] : {std::pair{"balls", 1}, std::pair{"rings", 1}}) {
     const testing::BuiltScene b = testing::build_spd(name, size);
@@ -27,11 +39,7 @@ TEST_CASE("replicated: images and AOVs are bit-identical to sequential for N in 
     for (std::uint32_t n : {1u, 2u, 3u, 7u, 16u, 64u}) {
       CAPTURE(name);
       CAPTURE(n);
-      ReplicatedParams p;
-      p.render = rp;
-      p.machine.nodes = n;
-      p.machine.node_memory = 8 * kMiB;
-      p.machine.timeout_s = 120;
+      ReplicatedParams p = params(rp, n);
       p.node_aov = true;
       const ReplicatedResult r = render_replicated(b.db, b.grid, p);
       CHECK(testing::same_bytes(r.render.color, seq.color));
@@ -96,11 +104,7 @@ TEST_CASE("replicated: under the model clock a node's busy time is exactly the m
   rp.height = 32;
   for (std::uint32_t n : {1u, 4u}) {
     CAPTURE(n);
-    ReplicatedParams p;
-    p.render = rp;
-    p.machine.nodes = n;
-    p.machine.node_memory = 8 * kMiB;
-    p.machine.timeout_s = 120;
+    ReplicatedParams p = params(rp, n);
     p.machine.clock = ComputeClock::kModel;  // network none: no service charges either
     const ReplicatedResult r1 = render_replicated(b.db, b.grid, p);
     double busy = 0;
@@ -165,11 +169,7 @@ TEST_CASE("replicated: balanced submaps keep the sequential image, and the plan 
   const core::RenderResult seq = core::render(b.db, b.grid, rp);
   for (std::uint32_t n : {3u, 16u}) {
     CAPTURE(n);
-    ReplicatedParams p;
-    p.render = rp;
-    p.machine.nodes = n;
-    p.machine.node_memory = 8 * kMiB;
-    p.machine.timeout_s = 120;
+    ReplicatedParams p = params(rp, n);
     p.submaps.rule = SubmapRule::kBalanced;
     p.submaps.subsample = 4;
     const ReplicatedResult r = render_replicated(b.db, b.grid, p);
