@@ -53,13 +53,10 @@ SubmapPlan plan_submaps(const core::Database& db, const core::Grid& grid, const 
     return plan;
   }
   plan.estimate = estimate_pixel_cost(db, grid, camera, render, params.subsample, model);
-  plan.rects = make_balanced_submaps(w, h, nodes, plan.estimate.cost);
-  // The parts' estimated costs, for the report.
+  std::vector<double> parts;  // each submap's estimated cost, for the report
+  plan.rects = make_balanced_submaps(w, h, nodes, plan.estimate.cost, &parts);
   double total = 0, most = 0;
-  for (const Rect& r : plan.rects) {
-    double part = 0;
-    for (int y = r.y0; y < r.y1; ++y)
-      for (int x = r.x0; x < r.x1; ++x) part += plan.estimate.cost[std::size_t(y) * std::size_t(w) + std::size_t(x)];
+  for (const double part : parts) {
     total += part;
     most = std::max(most, part);
   }

@@ -68,7 +68,7 @@ std::vector<Rect> make_submaps(std::int32_t width, std::int32_t height, std::uin
 }
 
 std::vector<Rect> make_balanced_submaps(std::int32_t width, std::int32_t height, std::uint32_t n,
-                                        std::span<const double> pixel_cost) {
+                                        std::span<const double> pixel_cost, std::vector<double>* part_cost) {
   if (n == 0) throw std::invalid_argument("make_balanced_submaps: n must be >= 1");
   if (pixel_cost.size() != std::size_t(width) * std::size_t(height))
     throw std::invalid_argument(fmt::format("make_balanced_submaps: {} pixel costs for a {}x{} image",
@@ -89,6 +89,10 @@ std::vector<Rect> make_balanced_submaps(std::int32_t width, std::int32_t height,
   out.reserve(n);
   const CostTable table{width, sat};
   split(Rect{0, 0, width, height}, n, &table, out);
+  if (part_cost) {
+    part_cost->clear();
+    for (const Rect& r : out) part_cost->push_back(table.sum(r));
+  }
   return out;
 }
 

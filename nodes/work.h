@@ -72,11 +72,13 @@ std::vector<Rect> make_submaps(std::int32_t width, std::int32_t height, std::uin
 /// floor(n/2)/n, one pixel from either edge while the side has room;
 /// a rectangle of zero cost is cut by area, as make_submaps does. Every
 /// pixel lies in exactly one rectangle; rectangle i belongs to node i.
+/// When `part_cost` is given, it receives each rectangle's summed cost.
 /// O(width x height + n log(width + height)). Throws
 /// std::invalid_argument for n = 0, a cost array of the wrong size or a
 /// negative or non-finite cost.
 std::vector<Rect> make_balanced_submaps(std::int32_t width, std::int32_t height, std::uint32_t n,
-                                        std::span<const double> pixel_cost);
+                                        std::span<const double> pixel_cost,
+                                        std::vector<double>* part_cost = nullptr);
 
 /// The not-yet-started work items of a rectangle, in row-major order of
 /// item_w x item_h blocks (the last row/column may be smaller). Taken from
