@@ -26,6 +26,7 @@
 #include "apps/commands.h"
 #include "apps/node_runs.h"
 #include "apps/progress.h"
+#include "apps/run_summary.h"
 #include "core/database.h"
 #include "core/direct_view.h"
 #include "core/embree_scene.h"
@@ -546,6 +547,8 @@ void run_render(const RenderOptions& o) {
                result.color.width, result.color.height, params.spp, params.spp, o.mode, o.accel, wall_s, cpu_s);
     fmt::print("rays: {} primary, {} shadow, {} reflected, {} refracted ({} total)\n", s.rays.primary,
                s.rays.shadow, s.rays.reflected, s.rays.refracted, s.rays.total());
+    for (const std::string& line : node_run_summary(extras.nodes, extras.svm, extras.dataflow))
+      fmt::print("{}\n", line);
     for (const auto& [name, path] : aov_files) fmt::print("{}: {}\n", name, path);
   }
 }

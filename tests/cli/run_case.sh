@@ -10,6 +10,7 @@
 #   --max-lines N    stderr has at most N lines (default 2: one message, plus
 #                    CLI11's "Run 'raynode --help'" hint for exit status 2)
 #   --limit S        seconds before the case counts as hung (default 60)
+#   --stdout REGEX   a line of stdout must match REGEX (grep -E); repeatable
 #
 # For a failing case (EXPECT_RC != 0) the work directory must hold exactly the
 # files it held before the run: no image, no --stats JSON, no AOV, no
@@ -18,13 +19,14 @@ set -uo pipefail
 
 raynode=$(realpath "$1") workdir=$2 expect_rc=$3 regex=$4
 shift 4
-setup=() present=() max_lines=2 limit=60
+setup=() present=() stdout_re=() max_lines=2 limit=60
 while [ $# -gt 0 ] && [ "$1" != "--" ]; do
   case $1 in
     --setup) setup+=("$2"); shift 2 ;;
     --present) present+=("$2"); shift 2 ;;
     --max-lines) max_lines=$2; shift 2 ;;
     --limit) limit=$2; shift 2 ;;
+    --stdout) stdout_re+=("$2"); shift 2 ;;
     *) echo "run_case.sh: unknown option '$1'" >&2; exit 2 ;;
   esac
 done
@@ -58,6 +60,9 @@ if [ "$expect_rc" != 0 ]; then
     comm -13 <(echo "$before") <(echo "$after") | sed 's/^/  + /'
   fi
 fi
+for re in "${stdout_re[@]}"; do
+  grep -Eq -- "$re" stdout.txt || { say "no line of stdout matches /$re/; stdout:"; sed 's/^/  | /' stdout.txt; }
+done
 for f in "${present[@]}"; do
   [ -s "$f" ] || say "expected output '$f' is missing or empty"
 done
