@@ -27,7 +27,9 @@
 
 #include "apps/commands.h"
 #include "apps/node_runs.h"
+#include "core/cell_blocks.h"
 #include "core/database.h"
+#include "core/direct_view.h"
 #include "core/grid.h"
 #include "core/render.h"
 #include "core/scene_source.h"
@@ -104,26 +106,36 @@ struct NodesBenchOptions {
   std::string json_path;
   std::string mode = "replicated";
   std::uint32_t cache_pages = 0;
+  std::uint32_t pack_min = 0;  ///< svm and the sequential reference: --pack-cells
 };
 
 void run_bench_nodes(const NodesBenchOptions& o) {
+  if (o.pack_min > 0 && o.mode != "svm")
+    throw UsageError("--pack-cells " + std::to_string(o.pack_min) + " is for --mode svm; --mode " + o.mode +
+                     " walks the paper's object lists (leave --pack-cells out)");
   NodeRunSpec spec = make_node_run_spec(o.run);
   spec.cache_pages = o.cache_pages;
+  spec.pack_min = o.pack_min;
   const core::Scene scene = core::load_scene(o.source);
   const core::Database db = core::make_database(scene);
   core::GridParams gp;
   gp.skip_empty = o.run.skip_empty;
   const core::Grid grid = core::build_grid(db, gp);
-  fmt::print("{} {} {}x{}, network {}, node memory {}, clock {}, submaps {}, work grants {}, requests {}, {} hardware "
-             "threads, best of {}\n",
+  fmt::print("{} {} {}x{}, network {}, node memory {}, clock {}, submaps {}, work grants {}, requests {}, {}, {} "
+             "hardware threads, best of {}\n",
              o.mode, o.source.spec, o.run.width, o.run.height, o.run.network, o.run.node_memory, o.run.clock,
-             o.run.submaps, o.run.work_grants, o.run.work_requests, std::thread::hardware_concurrency(), o.run.repeat);
+             o.run.submaps, o.run.work_grants, o.run.work_requests,
+             o.pack_min > 0 ? fmt::format("cells of {}+ triangles packed", o.pack_min) : std::string("object lists"),
+             std::thread::hardware_concurrency(), o.run.repeat);
   // The sequential tracer on the same image: what a one-node run is compared
-  // with. The object lists, as in the node modes (no --pack-cells here);
-  // its thread CPU time is what a node's CPU clock counts as busy time.
+  // with. The same cells as the nodes walk (object lists, or with
+  // --pack-cells the same packed blocks); its thread CPU time is what a
+  // node's CPU clock counts as busy time.
   double sequential_s = 0, sequential_cpu_s = 0;
   {
-    const core::DirectView view(db, grid);
+    std::optional<core::CellBlocks> blocks;
+    if (o.pack_min > 0) blocks = core::build_cell_blocks(db, grid, o.pack_min);
+    const core::DirectView view(db, grid, blocks ? &*blocks : nullptr);
     for (int i = 0; i < o.run.repeat; ++i) {
       const auto t0 = std::chrono::steady_clock::now();
       const double c0 = nodes::thread_cpu_seconds();
@@ -197,7 +209,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
     f << nlohmann::json{{"scene", o.source.spec},       {"mode", o.mode},   {"network", o.run.network},
                         {"clock", o.run.clock},         {"width", o.run.width}, {"height", o.run.height},
                         {"submaps", o.run.submaps},     {"work_grants", o.run.work_grants},
-                        {"work_requests", o.run.work_requests},
+                        {"work_requests", o.run.work_requests}, {"pack_cells", o.pack_min},
                         {"sequential_s", sequential_s}, {"sequential_cpu_s", sequential_cpu_s},
                         {"one_node_over_sequential", one_node_ratio ? nlohmann::json(*one_node_ratio) : nlohmann::json()},
                         {"rows", rows}}
@@ -243,6 +255,11 @@ void register_bench_nodes_commands(CLI::App& app) {
       ->check(CLI::IsMember({"replicated", "svm", "dataflow"}))
       ->capture_default_str();
   c->add_option("--cache", no->cache_pages, "svm: cache pages per node (0 = all free memory)")->capture_default_str();
+  c->add_option("--pack-cells", no->pack_min,
+                "svm and its sequential reference: pack cells of N or more triangles into SIMD blocks (0 = the "
+                "paper's object lists)")
+      ->check(CLI::Range(0, 1 << 20))
+      ->capture_default_str();
   c->callback([no] { run_bench_nodes(*no); });
 }
 

@@ -198,6 +198,7 @@ NodeRun run_node_mode(const core::Database& db, const core::Grid& grid, const st
       p.directory_order = spec.directory_order;
       p.cache_pages = spec.cache_pages;
       p.cache_fraction = spec.cache_fraction;
+      p.pack_min = spec.pack_min;
       const svm::SvmResult r = svm::render_svm(db, grid, p);
       common(r);
       out.grants = grants_sum(r.work);

@@ -98,6 +98,7 @@ struct NodeRunSpec {
   std::optional<svm::DirectoryOrder> directory_order;  ///< svm; nullopt = auto
   std::uint32_t cache_pages = 0;      ///< svm: frames per node; 0 = all free memory
   double cache_fraction = 0;          ///< svm: of the database's pages, used when > 0
+  std::uint32_t pack_min = 0;         ///< svm: --pack-cells (svm::SvmParams::pack_min); 0 = the paper's object lists
   nodes::SubmapParams submaps;        ///< replicated, svm
   int subsample = 8;                  ///< dataflow
   dataflow::PartitionKind partition = dataflow::PartitionKind::kBalanced;
