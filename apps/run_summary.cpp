@@ -17,6 +17,13 @@ const nlohmann::json* number(const nlohmann::json& j, const char* key) {
   return it != j.end() && it->is_number() ? &*it : nullptr;
 }
 
+/// The value at `key` of `j` if it is a string, else nullptr.
+const std::string* text(const nlohmann::json& j, const char* key) {
+  if (!j.is_object()) return nullptr;
+  const auto it = j.find(key);
+  return it != j.end() && it->is_string() ? it->get_ptr<const std::string*>() : nullptr;
+}
+
 /// Seconds in the unit that reads best: "412 us", "5.19 ms", "1.234 s".
 std::string seconds(double s) {
   if (s < 1e-3) return fmt::format("{:.0f} us", s * 1e6);
@@ -33,19 +40,16 @@ void add(std::string& line, const std::string& text) {
 std::string machine_line(const nlohmann::json& m) {
   std::string line = fmt::format("machine: {} nodes", m.value("count", 0));
   std::string how;
-  if (m.contains("topology") && m["topology"].is_string()) add(how, m["topology"].get<std::string>());
-  if (m.contains("network") && m["network"].is_string()) {
-    const std::string net = m["network"].get<std::string>();
-    add(how, net == "none" ? "no network costs" : net + " network");
-  }
-  if (m.contains("clock") && m["clock"].is_string()) add(how, m["clock"].get<std::string>() + " clock");
+  if (const auto* topology = text(m, "topology")) add(how, *topology);
+  if (const auto* net = text(m, "network")) add(how, *net == "none" ? "no network costs" : *net + " network");
+  if (const auto* clock = text(m, "clock")) add(how, *clock + " clock");
   if (!how.empty()) line += " (" + how + ")";
   std::string parts;
   if (const auto* tp = number(m, "parallel_time_s")) add(parts, "T_p " + seconds(tp->get<double>()));
   if (const auto* e = number(m, "efficiency_estimate"))
     add(parts, fmt::format("efficiency {:.1f}% (summed busy time / (N x T_p))", 100 * e->get<double>()));
   if (m.contains("total")) {
-    const nlohmann::json& t = m["total"];
+    const nlohmann::json& t = m["total"];  // number() checks that it is an object
     if (const auto* n = number(t, "messages_sent")) {
       std::string msgs = fmt::format("{} messages", n->get<std::uint64_t>());
       if (const auto* b = number(t, "bytes_sent")) msgs += " (" + nodes::format_bytes(b->get<std::size_t>()) + ")";
@@ -58,18 +62,17 @@ std::string machine_line(const nlohmann::json& m) {
 std::string work_line(const nlohmann::json& m) {
   const nlohmann::json& w = m["work"];
   std::string line;
-  if (m.contains("submaps") && m["submaps"].contains("rule") && m["submaps"]["rule"].is_string())
-    add(line, m["submaps"]["rule"].get<std::string>() + " submaps");
+  if (m.contains("submaps"))
+    if (const auto* rule = text(m["submaps"], "rule")) add(line, *rule + " submaps");
   if (const auto* g = number(w, "grants")) {
     std::string grants = fmt::format("{} work items granted", g->get<std::uint64_t>());
     if (const auto* p = number(w, "pixels_granted")) grants += fmt::format(" ({} pixels)", p->get<std::uint64_t>());
     add(line, grants);
   }
   if (const auto* r = number(w, "requests_sent")) add(line, fmt::format("{} work requests", r->get<std::uint64_t>()));
-  if (m.contains("work_grants") && m["work_grants"].is_string() && m.contains("work_requests") &&
-      m["work_requests"].is_string())
-    add(line, fmt::format("{} grants, {} requests", m["work_grants"].get<std::string>(),
-                          m["work_requests"].get<std::string>()));
+  const auto* grants = text(m, "work_grants");
+  const auto* requests = text(m, "work_requests");
+  if (grants && requests) add(line, fmt::format("{} grants, {} requests", *grants, *requests));
   return "work: " + line;
 }
 
@@ -98,8 +101,7 @@ std::string dataflow_line(const nlohmann::json& d) {
   std::string line;
   if (const auto* r = number(d, "regions")) {
     std::string regions = fmt::format("{} regions", r->get<std::uint64_t>());
-    if (d.contains("partition") && d["partition"].is_string())
-      regions += " (" + d["partition"].get<std::string>() + " partition)";
+    if (const auto* partition = text(d, "partition")) regions += " (" + *partition + " partition)";
     add(line, regions);
   }
   if (const auto* n = number(d, "ray_messages_total")) add(line, fmt::format("{} ray messages", n->get<std::uint64_t>()));
