@@ -256,7 +256,7 @@ PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, s
   std::byte* lists = at(l.list_first, 0);
   place_lists(l, grid, blocks, [&](std::uint32_t c, std::uint32_t address) {
     const std::uint32_t begin = grid.cell_start[c], end = grid.cell_start[c + 1];
-    put(entry(c), address);
+    put(entry(c), kListCell | address);
     put(lists + address, end - begin);
     std::memcpy(lists + address + 4, grid.cell_primitives.data() + begin, std::size_t(end - begin) * sizeof(std::uint32_t));
   });

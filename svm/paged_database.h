@@ -61,22 +61,29 @@
 namespace raynode::svm {
 
 /// One grid cell's entry in the paged cell directory, a 32-bit word whose
-/// top two bits say what the other 30 (its value) are:
+/// top two bits (its tag, kEntryTag) say what the other 30 (its value) are:
 ///   kEmptyCell | d    an empty cell; d = its empty-space distance
-///                     (core::Grid::empty_distance);
+///                     (core::Grid::empty_distance), so that the entry
+///                     *is* the distance;
 ///   kSingleCell | id  an unpacked cell that lists one primitive, its id;
 ///   kPackedCell | a   a packed cell; a = the byte address of its run's
 ///                     header in the blocks segment;
-///   a                 else the byte address of the cell's list header in
-///                     the lists segment.
+///   kListCell | a     a cell with a list; a = the byte address of its
+///                     list header in the lists segment.
 /// Four bytes, not a count and an address, put twice the cells in a
 /// directory page: the directory is the database's most shared segment
 /// (every ray that crosses the grid reads it), and a node fetches pages of
 /// it wherever its rays go. A one-primitive cell needs no list access.
+/// Empty cells, most of the cells a ray visits, have the tag 0: the view's
+/// first compare (entry < kSingleCell) finds one, and the entry is the
+/// distance it returns (docs/results.md, "One node, seventh pass").
 using DirectoryEntry = std::uint32_t;
+inline constexpr std::uint32_t kEmptyCell = 0;
 inline constexpr std::uint32_t kSingleCell = 1u << 30;
 inline constexpr std::uint32_t kPackedCell = 2u << 30;
-inline constexpr std::uint32_t kEmptyCell = 3u << 30;
+inline constexpr std::uint32_t kListCell = 3u << 30;
+/// The tag bits of a DirectoryEntry.
+inline constexpr std::uint32_t kEntryTag = 3u << 30;
 /// Largest list or run address and primitive id an entry can hold.
 inline constexpr std::uint32_t kMaxEntryValue = kSingleCell - 1;
 /// Bytes of a packed cell's run header (keeps its blocks 32-byte aligned).

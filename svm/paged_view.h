@@ -79,8 +79,8 @@ class PagedView {
     // The directory is the first segment: a cell's entry lies at cell x 4.
     DirectoryEntry e;
     std::memcpy(&e, pager_->at(std::uint64_t(cell) * sizeof(DirectoryEntry)), sizeof e);
-    if (e >= kSingleCell) {
-      if (e >= kEmptyCell) return e - kEmptyCell;  // an empty cell's empty-space distance
+    if (e < kSingleCell) return e;  // an empty cell: the entry is its empty-space distance
+    if (e < kListCell) {
       if (e < kPackedCell) {
         f(e - kSingleCell);  // a cell's one primitive
         return 0;
@@ -99,7 +99,10 @@ class PagedView {
         visit_chained_blocks(blocks_ + header + kPackedHeaderBytes, blocks, triangles, packed);
       return 0;
     }
-    const std::byte* head = pager_->at(lists_ + e);  // the list's header (its count), then its ids
+    // A list (kListCell's tag bits are the address's offset in its page's
+    // upper bits: they leave e & (page_size - 1) alone).
+    const std::uint64_t list = lists_ + (e - kListCell);
+    const std::byte* head = pager_->at(list);  // the list's header (its count), then its ids
     std::uint32_t count;
     std::memcpy(&count, head, sizeof count);
     // The ids follow the header; a list longer than the rest of its page
@@ -107,7 +110,7 @@ class PagedView {
     std::uint32_t left = count;
     std::uint32_t n = std::min(left, (layout_.page_size - (e & (layout_.page_size - 1)) - 4) / 4);
     const std::uint32_t* ids = reinterpret_cast<const std::uint32_t*>(head + 4);
-    std::uint64_t address = lists_ + e + 4;
+    std::uint64_t address = list + 4;
     for (;;) {
       if (pager_->in_cache(ids)) [[unlikely]] {
         // f() may evict this cache page (a one-page cache does): visit a copy.

@@ -47,10 +47,10 @@ CellRecord record_of(const PagedImage& im, const core::GridInfo& g, std::uint32_
   const PageLayout& l = im.layout;
   const DirectoryEntry e = entry_of(im, g, c);
   CellRecord r;
-  switch (e & kEmptyCell) {  // the top two bits
+  switch (e & kEntryTag) {  // the top two bits
     case kEmptyCell:
       r.empty = true;
-      r.distance = e & kMaxEntryValue;
+      r.distance = e;  // the entry is the distance
       return r;
     case kSingleCell:
       r.single = true;
@@ -63,8 +63,9 @@ CellRecord record_of(const PagedImage& im, const core::GridInfo& g, std::uint32_
       REQUIRE(l.block_address_page(r.header) < l.block_first + l.block_pages);
       r.count = word_at(im, l.block_address_page(r.header), l.block_address_offset(r.header));
       return r;
-    default: break;
+    default: REQUIRE((e & kEntryTag) == kListCell); break;
   }
+  const std::uint32_t list = e & kMaxEntryValue;
   auto word = [&](std::uint32_t a) {
     const std::uint32_t page = l.list_page(a);
     REQUIRE(page >= l.list_first);
@@ -72,9 +73,9 @@ CellRecord record_of(const PagedImage& im, const core::GridInfo& g, std::uint32_
     r.last_page = page;
     return word_at(im, page, l.list_offset(a));
   };
-  r.first_page = l.list_page(e);
-  r.count = word(e);
-  for (std::uint32_t i = 0; i < r.count; ++i) r.ids.push_back(word(e + 4 + 4 * i));
+  r.first_page = l.list_page(list);
+  r.count = word(list);
+  for (std::uint32_t i = 0; i < r.count; ++i) r.ids.push_back(word(list + 4 + 4 * i));
   return r;
 }
 

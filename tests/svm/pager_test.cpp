@@ -363,7 +363,7 @@ TEST_CASE("paged view: for_each_in_cell lists every cell, packed or not, while f
       for (std::uint32_t c = 0; c < b.grid.info.cell_count(); ++c) {
         DirectoryEntry e;
         std::memcpy(&e, image.page(image.layout.directory_page(c)).data() + image.layout.directory_offset(c), 4);
-        alone += e < kSingleCell && (e & (ps - 1)) == ps - 4;
+        alone += e >= kListCell && (e & (ps - 1)) == ps - 4;
       }
       CHECK(alone > 0);
     }
