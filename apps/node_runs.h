@@ -18,8 +18,11 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
+#include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 #include <utility>
@@ -159,6 +162,17 @@ NodeRun run_best(const core::Database& db, const core::Grid& grid, const std::st
 /// --node-memory: the arena is only a budget, so this is accounting, not
 /// memory taken.
 inline constexpr std::size_t kT1FallbackMemory = std::size_t(64) << 30;
+
+/// The median of `values` (the mean of the middle two for an even count);
+/// NaN for none. Takes a copy: the caller's order stays.
+inline double median(std::vector<double> values) {
+  if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
+  const std::size_t mid = values.size() / 2;
+  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(mid), values.end());
+  if (values.size() % 2 == 1) return values[mid];
+  const double upper = values[mid];
+  return (*std::max_element(values.begin(), values.begin() + std::ptrdiff_t(mid)) + upper) / 2;
+}
 
 /// "1.5 s", "2 min 10 s", "1 h 02 min" for progress lines.
 std::string format_duration(double seconds);
