@@ -154,7 +154,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
       sequential_cpu_s = i == 0 ? cpu : std::min(sequential_cpu_s, cpu);
       if (!pairs || (one_node && !one_node->fits)) continue;
       NodeRun r = run_node_mode(db, grid, o.mode, spec, 1);
-      if (r.fits && cpu > 0) pair_ratios.push_back(r.work_s / cpu);
+      if (r.fits && cpu > 0 && o.run.clock == "cpu") pair_ratios.push_back(r.work_s / cpu);  // measured over measured
       if (!one_node || !r.fits || r.parallel_time_s < one_node->parallel_time_s) one_node = std::move(r);
     }
   }

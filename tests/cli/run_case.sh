@@ -11,6 +11,7 @@
 #                    CLI11's "Run 'raynode --help'" hint for exit status 2)
 #   --limit S        seconds before the case counts as hung (default 60)
 #   --stdout REGEX   a line of stdout must match REGEX (grep -E); repeatable
+#   --no-stdout REGEX  no line of stdout may match REGEX; repeatable
 #
 # For a failing case (EXPECT_RC != 0) the work directory must hold exactly the
 # files it held before the run: no image, no --stats JSON, no AOV, no
@@ -19,7 +20,7 @@ set -uo pipefail
 
 raynode=$(realpath "$1") workdir=$2 expect_rc=$3 regex=$4
 shift 4
-setup=() present=() stdout_re=() max_lines=2 limit=60
+setup=() present=() stdout_re=() no_stdout_re=() max_lines=2 limit=60
 while [ $# -gt 0 ] && [ "$1" != "--" ]; do
   case $1 in
     --setup) setup+=("$2"); shift 2 ;;
@@ -27,6 +28,7 @@ while [ $# -gt 0 ] && [ "$1" != "--" ]; do
     --max-lines) max_lines=$2; shift 2 ;;
     --limit) limit=$2; shift 2 ;;
     --stdout) stdout_re+=("$2"); shift 2 ;;
+    --no-stdout) no_stdout_re+=("$2"); shift 2 ;;
     *) echo "run_case.sh: unknown option '$1'" >&2; exit 2 ;;
   esac
 done
@@ -62,6 +64,9 @@ if [ "$expect_rc" != 0 ]; then
 fi
 for re in "${stdout_re[@]}"; do
   grep -Eq -- "$re" stdout.txt || { say "no line of stdout matches /$re/; stdout:"; sed 's/^/  | /' stdout.txt; }
+done
+for re in "${no_stdout_re[@]}"; do
+  ! grep -Eq -- "$re" stdout.txt || { say "a line of stdout matches /$re/, which none should; stdout:"; sed 's/^/  | /' stdout.txt; }
 done
 for f in "${present[@]}"; do
   [ -s "$f" ] || say "expected output '$f' is missing or empty"
