@@ -136,6 +136,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
   // that a change in the machine's speed during the bench (this VM's moves
   // by 10-25%) reaches both sides of the ratio alike; each side keeps its
   // best, and every pair's ratio is kept for their median.
+  const bool cpu_clock = o.run.clock == "cpu";  // else the node's time is modelled: no ratio to sequential's
   double sequential_s = 0, sequential_cpu_s = 0;
   std::optional<NodeRun> one_node;  // the best one-node run, taken in turn with sequential's
   std::vector<double> pair_ratios;  // per pair: the node's busy CPU time over sequential's
@@ -154,7 +155,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
       sequential_cpu_s = i == 0 ? cpu : std::min(sequential_cpu_s, cpu);
       if (!pairs || (one_node && !one_node->fits)) continue;
       NodeRun r = run_node_mode(db, grid, o.mode, spec, 1);
-      if (r.fits && cpu > 0 && o.run.clock == "cpu") pair_ratios.push_back(r.work_s / cpu);  // measured over measured
+      if (r.fits && cpu > 0 && cpu_clock) pair_ratios.push_back(r.work_s / cpu);
       if (!one_node || !r.fits || r.parallel_time_s < one_node->parallel_time_s) one_node = std::move(r);
     }
   }
@@ -214,7 +215,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
   // median of the pairs' ratios. Under the model clock the node's time is
   // modelled, not measured: no ratio.
   std::optional<double> one_node_ratio, one_node_median;
-  if (t1 > 0 && o.run.clock == "cpu" && sequential_cpu_s > 0) {
+  if (t1 > 0 && cpu_clock && sequential_cpu_s > 0) {
     one_node_ratio = t1_work_s / sequential_cpu_s;
     if (!pair_ratios.empty()) one_node_median = median(pair_ratios);
     fmt::print("one node against sequential: {:.3f}x (the node's busy CPU time over sequential's, best of {} each, "

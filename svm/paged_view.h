@@ -99,8 +99,8 @@ class PagedView {
         visit_chained_blocks(blocks_ + header + kPackedHeaderBytes, blocks, triangles, packed);
       return 0;
     }
-    // A list (kListCell's tag bits are the address's offset in its page's
-    // upper bits: they leave e & (page_size - 1) alone).
+    // A list. The tag lies in bits 30-31, above any page offset, so
+    // e & (page_size - 1) is still the header's byte in its page.
     const std::uint64_t list = lists_ + (e - kListCell);
     const std::byte* head = pager_->at(list);  // the list's header (its count), then its ids
     std::uint32_t count;
