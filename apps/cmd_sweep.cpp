@@ -147,7 +147,8 @@ std::string num(const std::optional<T>& v) {
 /// The columns every sweep row has after its own leading ones.
 const std::vector<std::string>& run_columns() {
   static const std::vector<std::string> c = {
-      "status", "wall_s", "parallel_time_s", "t1_s", "speedup", "efficiency", "rays", "work_s", "grants",
+      "status", "wall_s", "parallel_time_s", "t1_s", "speedup", "efficiency", "estimate_s",
+      "efficiency_estimate_charged", "rays", "work_s", "grants",
       "miss_ratio", "cache_miss_ratio", "pages_per_pixel", "communication_rate_bytes_per_s",
       "communication_rate_per_node_bytes_per_s", "ipsc2_rate_per_node_bytes_per_s", "page_requests", "evictions",
       "ray_messages", "spill_fraction", "average_load"};
@@ -183,7 +184,13 @@ void fill_run(Table& t, std::size_t row, const NodeRun& r, std::uint32_t nodes, 
     const double speedup = t1_s / r.parallel_time_s;
     t.set(row, "speedup", num(speedup));
     t.set(row, "efficiency", num(speedup / double(nodes)));
+    // --submaps balanced: the host's estimate before the run charged to T_p
+    // (bench nodes' eff_charged).
+    if (r.estimate_s)
+      t.set(row, "efficiency_estimate_charged",
+            num(charged_efficiency(t1_s, r.parallel_time_s, int(nodes), *r.estimate_s)));
   }
+  t.set(row, "estimate_s", num(r.estimate_s));
   t.set(row, "rays", fmt::format("{}", r.rays));
   t.set(row, "work_s", num(r.work_s));
   t.set(row, "grants", num(r.grants));

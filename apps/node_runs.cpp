@@ -169,6 +169,13 @@ std::uint64_t grants_sum(const std::vector<nodes::WorkStats>& work) {
   return g;
 }
 
+/// The balanced submaps' host estimate in the run's clock's seconds;
+/// nullopt for square submaps.
+std::optional<double> estimate_seconds(const nodes::SubmapPlan& plan, nodes::ComputeClock clock) {
+  if (plan.params.rule != nodes::SubmapRule::kBalanced) return std::nullopt;
+  return clock == nodes::ComputeClock::kModel ? plan.estimate.model_s : plan.estimate.wall_s;
+}
+
 }  // namespace
 
 NodeRun run_node_mode(const core::Database& db, const core::Grid& grid, const std::string& mode,
@@ -202,6 +209,7 @@ NodeRun run_node_mode(const core::Database& db, const core::Grid& grid, const st
       const svm::SvmResult r = svm::render_svm(db, grid, p);
       common(r);
       out.grants = grants_sum(r.work);
+      out.estimate_s = estimate_seconds(r.submaps, mp.clock);
       const svm::PagerStats t = r.pager_total();
       out.miss_ratio = t.miss_ratio();
       out.cache_miss_ratio = t.cache_miss_ratio();
@@ -225,6 +233,7 @@ NodeRun run_node_mode(const core::Database& db, const core::Grid& grid, const st
       const nodes::ReplicatedResult r = nodes::render_replicated(db, grid, p);
       common(r);
       out.grants = grants_sum(r.work);
+      out.estimate_s = estimate_seconds(r.submaps, mp.clock);
     } else if (mode == "dataflow") {
       dataflow::DataflowParams p;
       p.render = spec.render;

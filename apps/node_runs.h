@@ -129,6 +129,11 @@ struct NodeRun {
   double work_s = 0;           ///< busy virtual seconds summed over the nodes
   std::uint64_t rays = 0;      ///< rays traced, all kinds
   std::optional<std::uint64_t> grants;  ///< replicated, svm: work items granted
+  /// replicated, svm with --submaps balanced: the host's load estimate,
+  /// traced before the run and outside virtual time, in the run's clock's
+  /// seconds (its modelled seconds under the model clock, its host wall
+  /// seconds under the CPU clock; 0 at one node, which traces none).
+  std::optional<double> estimate_s;
   // svm
   std::optional<double> miss_ratio;        ///< page faults per object access
   std::optional<double> cache_miss_ratio;  ///< page faults per non-home page lookup (once per pixel), from the cache's filling (0 if it never fills)
@@ -172,6 +177,14 @@ inline double median(std::vector<double> values) {
   if (values.size() % 2 == 1) return values[mid];
   const double upper = values[mid];
   return (*std::max_element(values.begin(), values.begin() + std::ptrdiff_t(mid)) + upper) / 2;
+}
+
+/// Efficiency with a serial step before the run charged:
+/// T_1 / (n x (T_p + serial_s)), the paper's efficiency when serial_s is 0;
+/// 0 without T_1 or T_p (t1 <= 0 or tp + serial_s <= 0). Seconds on one clock.
+inline double charged_efficiency(double t1, double tp, int n, double serial_s) {
+  const double t = tp + serial_s;
+  return t1 > 0 && t > 0 && n > 0 ? t1 / (double(n) * t) : 0.0;
 }
 
 /// "1.5 s", "2 min 10 s", "1 h 02 min" for progress lines.

@@ -52,6 +52,15 @@ SubmapPlan plan_submaps(const core::Database& db, const core::Grid& grid, const 
     plan.rects = make_submaps(w, h, nodes);
     return plan;
   }
+  // One node's one submap is the whole image, whatever the costs: no
+  // estimate to trace (nor to charge against T_1).
+  if (nodes == 1) {
+    if (params.subsample < 1)
+      throw std::invalid_argument(fmt::format("subsample must be >= 1, got {}", params.subsample));
+    plan.rects = make_submaps(w, h, 1);
+    plan.estimated_max_over_mean = 1.0;
+    return plan;
+  }
   plan.estimate = estimate_pixel_cost(db, grid, camera, render, params.subsample, model);
   std::vector<double> parts;  // each submap's estimated cost, for the report
   plan.rects = make_balanced_submaps(w, h, nodes, plan.estimate.cost, &parts);

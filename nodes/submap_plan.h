@@ -77,8 +77,9 @@ struct SubmapPlan {
 
 /// The submaps of `nodes` nodes over camera's image under `params`:
 /// make_submaps (kSquare), or make_balanced_submaps over
-/// estimate_pixel_cost (kBalanced). Throws std::invalid_argument for bad
-/// params.
+/// estimate_pixel_cost (kBalanced; at one node the whole image, with no
+/// estimate traced: plan.estimate stays empty, max over mean 1). Throws
+/// std::invalid_argument for bad params.
 SubmapPlan plan_submaps(const core::Database& db, const core::Grid& grid, const core::Camera& camera,
                         const core::RenderParams& render, std::uint32_t nodes, const SubmapParams& params,
                         const core::CostModel& model);

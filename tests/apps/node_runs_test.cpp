@@ -1,0 +1,68 @@
+// apps/node_runs.h: what a node-mode run reports of the balanced submaps'
+// host estimate (NodeRun::estimate_s), which `bench nodes` charges in its
+// eff_charged column, and charged_efficiency itself.
+#include "apps/node_runs.h"
+
+#include <doctest/doctest.h>
+
+#include "core/camera.h"
+#include "nodes/submap_plan.h"
+#include "test_scenes.h"
+
+using namespace raynode;
+
+namespace {
+
+apps::NodeRunSpec balanced_spec(nodes::ComputeClock clock) {
+  apps::NodeRunSpec spec;
+  spec.render.width = 40;
+  spec.render.height = 32;
+  spec.machine.node_memory = std::size_t(16) << 20;
+  spec.machine.clock = clock;
+  spec.submaps.rule = nodes::SubmapRule::kBalanced;
+  spec.submaps.subsample = 4;
+  return spec;
+}
+
+}  // namespace
+
+TEST_CASE("node runs: balanced submaps report their host estimate in the clock's seconds, and one node traces none") {
+  const testing::BuiltScene b = testing::build_spd("tetra", 3);
+  const apps::NodeRunSpec spec = balanced_spec(nodes::ComputeClock::kModel);
+  // The estimate the modes make: the scene's camera at the run's size.
+  const core::Camera camera(core::render_view(b.db), 40, 32);
+  const nodes::PixelCostEstimate direct =
+      nodes::estimate_pixel_cost(b.db, b.grid, camera, spec.render, 4, spec.machine.cost_model);
+  REQUIRE(direct.model_s > 0);
+  for (const char* mode : {"svm", "replicated"}) {
+    CAPTURE(mode);
+    const apps::NodeRun two = apps::run_node_mode(b.db, b.grid, mode, spec, 2);
+    REQUIRE(two.fits);
+    REQUIRE(two.estimate_s.has_value());
+    CHECK(*two.estimate_s == doctest::Approx(direct.model_s).epsilon(1e-12));  // modelled, so the same seconds
+    const apps::NodeRun one = apps::run_node_mode(b.db, b.grid, mode, spec, 1);
+    REQUIRE(one.fits);
+    REQUIRE(one.estimate_s.has_value());
+    CHECK(*one.estimate_s == 0.0);  // one submap, the whole image: nothing to estimate
+    // Charged, the two-node run's efficiency falls below the uncharged one.
+    const double plain = apps::charged_efficiency(one.parallel_time_s, two.parallel_time_s, 2, 0);
+    CHECK(apps::charged_efficiency(one.parallel_time_s, two.parallel_time_s, 2, *two.estimate_s) < plain);
+  }
+  // Under the CPU clock the estimate's host wall seconds.
+  const apps::NodeRun cpu = apps::run_node_mode(b.db, b.grid, "svm", balanced_spec(nodes::ComputeClock::kCpu), 2);
+  REQUIRE(cpu.estimate_s.has_value());
+  CHECK(*cpu.estimate_s > 0);
+  // Square submaps and dataflow have no estimate of submaps to report.
+  apps::NodeRunSpec square = spec;
+  square.submaps.rule = nodes::SubmapRule::kSquare;
+  CHECK_FALSE(apps::run_node_mode(b.db, b.grid, "svm", square, 2).estimate_s.has_value());
+  CHECK_FALSE(apps::run_node_mode(b.db, b.grid, "dataflow", spec, 2).estimate_s.has_value());
+}
+
+TEST_CASE("node runs: charged_efficiency") {
+  CHECK(apps::charged_efficiency(8.0, 1.0, 8, 0.0) == 1.0);     // the paper's T_1 / (n T_p)
+  CHECK(apps::charged_efficiency(8.0, 1.0, 8, 1.0) == 0.5);     // a serial step as long as T_p halves it
+  CHECK(apps::charged_efficiency(6.0, 1.0, 4, 0.5) == 1.0);     // 6 / (4 x 1.5)
+  CHECK(apps::charged_efficiency(0.0, 1.0, 8, 0.0) == 0.0);     // no T_1
+  CHECK(apps::charged_efficiency(8.0, 0.0, 8, 0.0) == 0.0);     // no T_p
+}
