@@ -165,7 +165,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
   // Balanced submaps: the host's estimate ran before each run, outside
   // virtual time (as the paper leaves out its data-oriented algorithm's);
   // eff_charged adds it to T_p, as serial work of one node before the run.
-  const bool balanced = !flow && o.run.submaps == "balanced";
+  const bool balanced = !flow && spec.submaps.rule == nodes::SubmapRule::kBalanced;
   if (flow)
     fmt::print("{:>6} {:>9} {:>11} {:>9} {:>10} {:>10} {:>10} {:>10} {:>9}\n", "nodes", "wall_s", "T_p_s", "speedup",
                "efficiency", "work_s", "ray_msgs", "spill", "avg_load");
@@ -187,6 +187,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
       t1_work_s = best.work_s;
     }
     const double speedup = t1 > 0 ? t1 / tp : 0;
+    const double charged = balanced ? charged_efficiency(t1, tp, n, best.estimate_s.value_or(0)) : 0;
     if (flow)
       fmt::print("{:>6} {:>9.3f} {:>11.5f} {:>9.2f} {:>10.3f} {:>10.4f} {:>10} {:>10.5f} {:>9.3f}\n", n, best.wall_s,
                  tp, speedup, speedup / double(n), best.work_s, best.ray_messages.value_or(0),
@@ -195,8 +196,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
       fmt::print("{:>6} {:>9.3f} {:>11.5f} {:>9.2f} {:>10.3f} {:>10.4f} {:>8} {:>10.5f} {:>9.2f}{}\n", n, best.wall_s,
                  tp, speedup, speedup / double(n), best.work_s, best.grants.value_or(0), best.miss_ratio.value_or(-1),
                  best.pages_per_pixel.value_or(-1),
-                 balanced ? fmt::format(" {:>12.3f}", charged_efficiency(t1, tp, n, best.estimate_s.value_or(0)))
-                          : std::string());
+                 balanced ? fmt::format(" {:>12.3f}", charged) : std::string());
     nlohmann::json row = {{"nodes", n},       {"wall_s", best.wall_s},         {"parallel_time_s", tp},
                           {"speedup", speedup}, {"efficiency", speedup / double(n)}, {"work_s", best.work_s},
                           {"rays", best.rays}};
@@ -211,7 +211,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
     }
     if (balanced) {
       row["estimate_s"] = best.estimate_s.value_or(0);
-      row["efficiency_estimate_charged"] = charged_efficiency(t1, tp, n, best.estimate_s.value_or(0));
+      row["efficiency_estimate_charged"] = charged;
     }
     if (best.communication_rate_bytes_per_s) {
       row["page_requests"] = best.page_requests.value_or(0);

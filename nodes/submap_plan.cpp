@@ -13,9 +13,18 @@
 
 namespace raynode::nodes {
 
+namespace {
+
+/// std::invalid_argument unless subsample >= 1 (the estimate's block side).
+void check_subsample(int subsample) {
+  if (subsample < 1) throw std::invalid_argument(fmt::format("subsample must be >= 1, got {}", subsample));
+}
+
+}  // namespace
+
 PixelCostEstimate estimate_pixel_cost(const core::Database& db, const core::Grid& grid, const core::Camera& camera,
                                       const core::RenderParams& render, int subsample, const core::CostModel& model) {
-  if (subsample < 1) throw std::invalid_argument(fmt::format("subsample must be >= 1, got {}", subsample));
+  check_subsample(subsample);
   const auto t0 = std::chrono::steady_clock::now();
   const int w = camera.width(), h = camera.height();
   const core::DirectView view(db, grid);
@@ -55,8 +64,7 @@ SubmapPlan plan_submaps(const core::Database& db, const core::Grid& grid, const 
   // One node's one submap is the whole image, whatever the costs: no
   // estimate to trace (nor to charge against T_1).
   if (nodes == 1) {
-    if (params.subsample < 1)
-      throw std::invalid_argument(fmt::format("subsample must be >= 1, got {}", params.subsample));
+    check_subsample(params.subsample);
     plan.rects = make_submaps(w, h, 1);
     plan.estimated_max_over_mean = 1.0;
     return plan;
