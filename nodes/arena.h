@@ -48,6 +48,10 @@ class ArenaExhausted : public std::runtime_error {
 /// Formats a byte count for messages: "4 MiB", "1.5 KiB", "733 B".
 std::string format_bytes(std::size_t bytes);
 
+/// Tag: an arena array whose elements are left uninitialised.
+struct Uninitialized {};
+inline constexpr Uninitialized kUninitialized{};
+
 /// A node's memory budget. See the file comment.
 class Arena : public std::pmr::memory_resource {
  public:
@@ -72,11 +76,19 @@ class Arena : public std::pmr::memory_resource {
   /// n value-initialised T's (T trivially destructible); throws ArenaExhausted.
   template <class T>
   std::span<T> allocate_array(std::size_t n, const char* what) {
-    static_assert(std::is_trivially_destructible_v<T>, "arena arrays hold plain records");
-    if (n > budget_ / sizeof(T)) throw_exhausted(n > SIZE_MAX / sizeof(T) ? SIZE_MAX : n * sizeof(T), what);
-    T* p = static_cast<T*>(allocate_bytes(n * sizeof(T), alignof(T), what));
-    for (std::size_t i = 0; i < n; ++i) new (p + i) T();
-    return {p, n};
+    const std::span<T> a = allocate_raw_array<T>(n, what);
+    for (std::size_t i = 0; i < n; ++i) new (a.data() + i) T();
+    return a;
+  }
+  /// n T's left uninitialised (T trivially copyable, so that bytes copied
+  /// in make its objects): for arrays that are written before they are
+  /// read (a copy of the host's data, a page cache), so that nothing
+  /// touches, and the operating system need not back, memory the render
+  /// never uses. Throws ArenaExhausted.
+  template <class T>
+  std::span<T> allocate_uninitialized_array(std::size_t n, const char* what) {
+    static_assert(std::is_trivially_copyable_v<T>, "an uninitialised arena array holds plain records");
+    return allocate_raw_array<T>(n, what);
   }
   template <class T>
   void deallocate_array(std::span<T> a) noexcept {
@@ -102,6 +114,12 @@ class Arena : public std::pmr::memory_resource {
   }
 
  private:
+  template <class T>
+  std::span<T> allocate_raw_array(std::size_t n, const char* what) {
+    static_assert(std::is_trivially_destructible_v<T>, "arena arrays hold plain records");
+    if (n > budget_ / sizeof(T)) throw_exhausted(n > SIZE_MAX / sizeof(T) ? SIZE_MAX : n * sizeof(T), what);
+    return {static_cast<T*>(allocate_bytes(n * sizeof(T), alignof(T), what)), n};
+  }
   void* do_allocate(std::size_t bytes, std::size_t align) override;
   void do_deallocate(void* p, std::size_t bytes, std::size_t align) override;
   bool do_is_equal(const std::pmr::memory_resource& other) const noexcept override { return this == &other; }
@@ -120,6 +138,9 @@ class ArenaArray {
  public:
   ArenaArray() = default;
   ArenaArray(Arena& arena, std::size_t n, const char* what) : arena_(&arena), data_(arena.allocate_array<T>(n, what)) {}
+  /// n T's left uninitialised (Arena::allocate_uninitialized_array).
+  ArenaArray(Arena& arena, std::size_t n, const char* what, Uninitialized)
+      : arena_(&arena), data_(arena.allocate_uninitialized_array<T>(n, what)) {}
   ArenaArray(ArenaArray&& o) noexcept : arena_(o.arena_), data_(o.data_) { o.data_ = {}; }
   ArenaArray& operator=(ArenaArray&& o) noexcept {
     if (this != &o) {
@@ -151,7 +172,7 @@ class ArenaArray {
 template <class T>
 ArenaArray<T> copy_to_arena(Arena& arena, std::span<const T> src, const char* what) {
   static_assert(std::is_trivially_copyable_v<T>, "node memory holds plain records");
-  ArenaArray<T> a(arena, src.size(), what);
+  ArenaArray<T> a(arena, src.size(), what, kUninitialized);
   if (!src.empty()) std::memcpy(static_cast<void*>(a.data()), src.data(), src.size_bytes());
   return a;
 }

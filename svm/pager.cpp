@@ -63,7 +63,7 @@ Pager::Pager(nodes::NodeContext& ctx, const PageLayout& layout, std::uint32_t ca
       touched_(ctx.arena(), kTouchedCapacity, "its touched-page list"),
       lines_(ctx.arena(),
              checked_frames(layout, std::uint64_t(home_frames_) + cache_pages + 1) * (layout.page_size / sizeof(Line)),
-             "its home pages, page cache and list buffer") {
+             "its home pages, page cache and list buffer", nodes::kUninitialized) {
   static_assert(sizeof(PageEntry) == 8 && sizeof(std::uint32_t) * 2 + 2 * sizeof(LruEvent) == kPagerFrameOverheadBytes &&
                     kTouchedCapacity == kPagerTouchedCapacity,
                 "pager_table_bytes counts these sizes");

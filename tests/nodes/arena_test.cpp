@@ -1,5 +1,7 @@
 #include <doctest/doctest.h>
 
+#include <cstdint>
+#include <cstdio>
 #include <memory_resource>
 #include <string>
 #include <vector>
@@ -63,6 +65,53 @@ TEST_CASE("arena: ArenaArray value-initialises, frees on destruction and refuses
   CHECK(arena.used() == 0);
   CHECK_THROWS_AS(ArenaArray<double>(arena, std::size_t(1) << 62, "too many"), ArenaExhausted);
   CHECK(arena.used() == 0);
+}
+
+namespace {
+/// This process's resident set in bytes (/proc/self/statm), or 0 if unknown.
+std::size_t resident_bytes() {
+  std::FILE* f = std::fopen("/proc/self/statm", "r");
+  if (!f) return 0;
+  unsigned long long size = 0, resident = 0;
+  const int got = std::fscanf(f, "%llu %llu", &size, &resident);
+  std::fclose(f);
+  return got == 2 ? std::size_t(resident) * 4096 : 0;
+}
+}  // namespace
+
+TEST_CASE("arena: an uninitialised ArenaArray is charged and refused like any other, and touches no memory") {
+  constexpr std::size_t kBytes = std::size_t(256) << 20;
+  Arena arena(2, kBytes);
+  struct alignas(64) Line {
+    std::byte bytes[64];
+  };
+  const std::size_t before = resident_bytes();
+  REQUIRE(before > 0);
+  {
+    ArenaArray<Line> frames(arena, kBytes / sizeof(Line), "its frames", kUninitialized);
+    CHECK(arena.used() == kBytes);
+    CHECK(frames.size() == kBytes / sizeof(Line));
+    // Nothing was written: the operating system backs none of it yet (a
+    // page cache that the render never fills costs no host memory).
+    CHECK(resident_bytes() < before + kBytes / 4);
+    frames[frames.size() - 1].bytes[63] = std::byte{7};
+    CHECK(frames[frames.size() - 1].bytes[63] == std::byte{7});
+    CHECK_THROWS_AS(ArenaArray<Line>(arena, 1, "one more line", kUninitialized), ArenaExhausted);
+  }
+  CHECK(arena.used() == 0);
+  {
+    // The contrast, so that the check above can fail: value-initialised
+    // arrays are written, page by page.
+    const std::size_t zeroed_before = resident_bytes();
+    ArenaArray<Line> zeroed(arena, kBytes / sizeof(Line), "its zeroed frames");
+    CHECK(resident_bytes() >= zeroed_before + kBytes / 2);
+  }
+  // copy_to_arena copies into uninitialised memory: every byte is the source's.
+  std::vector<std::uint32_t> src(10000);
+  for (std::size_t i = 0; i < src.size(); ++i) src[i] = std::uint32_t(i * 2654435761u);
+  const ArenaArray<std::uint32_t> copy = copy_to_arena(arena, std::span<const std::uint32_t>(src), "a copy");
+  CHECK(arena.used() == src.size() * sizeof(std::uint32_t));
+  CHECK(std::vector<std::uint32_t>(copy.span().begin(), copy.span().end()) == src);
 }
 
 TEST_CASE("arena: format_bytes reads like the budget flags") {
