@@ -334,6 +334,10 @@ class Pager {
   nodes::ArenaArray<LruEvent> events_;           ///< ring of stamp events, oldest first (2 per cache frame)
   std::size_t events_head_ = 0, events_n_ = 0;
   nodes::ArenaArray<std::uint32_t> touched_;     ///< kTouchedCapacity slots
+  /// The frames: home pages, cache frames, the list buffer. Uninitialised
+  /// (nodes::kUninitialized): each is written before it is read (a home
+  /// page by the load, a cache frame by its fetch, the buffer by its list),
+  /// so cache frames that no fault fills cost the host no memory.
   nodes::ArenaArray<Line> lines_;
   const std::byte* cache_base_ = nullptr;  ///< first cache frame
   std::uint32_t* list_buffer_ = nullptr;   ///< one page after the cache frames
