@@ -80,7 +80,7 @@ std::size_t resident_bytes() {
 }  // namespace
 
 TEST_CASE("arena: an uninitialised ArenaArray is charged and refused like any other, and touches no memory") {
-  constexpr std::size_t kBytes = std::size_t(256) << 20;
+  constexpr std::size_t kBytes = std::size_t(64) << 20;
   Arena arena(2, kBytes);
   struct alignas(64) Line {
     std::byte bytes[64];
