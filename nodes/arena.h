@@ -171,8 +171,7 @@ class ArenaArray {
 /// host loads a node's memory. Throws ArenaExhausted naming `what`.
 template <class T>
 ArenaArray<T> copy_to_arena(Arena& arena, std::span<const T> src, const char* what) {
-  static_assert(std::is_trivially_copyable_v<T>, "node memory holds plain records");
-  ArenaArray<T> a(arena, src.size(), what, kUninitialized);
+  ArenaArray<T> a(arena, src.size(), what, kUninitialized);  // asserts T trivially copyable
   if (!src.empty()) std::memcpy(static_cast<void*>(a.data()), src.data(), src.size_bytes());
   return a;
 }

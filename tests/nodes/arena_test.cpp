@@ -1,4 +1,5 @@
 #include <doctest/doctest.h>
+#include <unistd.h>
 
 #include <cstdint>
 #include <cstdio>
@@ -75,7 +76,7 @@ std::size_t resident_bytes() {
   unsigned long long size = 0, resident = 0;
   const int got = std::fscanf(f, "%llu %llu", &size, &resident);
   std::fclose(f);
-  return got == 2 ? std::size_t(resident) * 4096 : 0;
+  return got == 2 ? std::size_t(resident) * std::size_t(sysconf(_SC_PAGESIZE)) : 0;
 }
 }  // namespace
 
