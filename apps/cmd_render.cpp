@@ -659,9 +659,11 @@ void register_render_command(CLI::App& app) {
   c->add_option("--work-item", o->work_item, "Node modes: pixels per work item, WxH")->capture_default_str();
   c->add_option("--work-requests", o->work_requests,
                 "replicated, svm: where an idle node asks for work: ring (the paper: to its ring successor, on "
-                "round the ring) or last-grantor (first straight to the node that gave it its last item, then "
-                "the ring: fewer hops)")
-      ->check(CLI::IsMember({"ring", "last-grantor"}))
+                "round the ring), last-grantor (first straight to the node that gave it its last item, then "
+                "the ring: fewer hops) or off (no requests: each node renders its static submap and nothing "
+                "else, the baseline that shows what the requests gain; which node renders which pixel no "
+                "longer depends on thread scheduling)")
+      ->check(CLI::IsMember({"ring", "last-grantor", "off"}))
       ->capture_default_str();
   c->add_option("--work-grants", o->work_grants,
                 "replicated, svm: what a busy node grants a work request: item (the paper: one work item from "

@@ -39,9 +39,9 @@ void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) 
       ->capture_default_str();
   c.add_option("--work-item", o.work_item, "replicated, svm: pixels per work item, WxH")->capture_default_str();
   c.add_option("--work-requests", o.work_requests,
-               "replicated, svm: where an idle node asks for work: ring (the paper) or last-grantor (first the "
-               "node that gave it its last item)")
-      ->check(CLI::IsMember({"ring", "last-grantor"}))
+               "replicated, svm: where an idle node asks for work: ring (the paper), last-grantor (first the "
+               "node that gave it its last item) or off (none: static submaps only)")
+      ->check(CLI::IsMember({"ring", "last-grantor", "off"}))
       ->capture_default_str();
   c.add_option("--work-grants", o.work_grants,
                "replicated, svm: what a busy node grants: item (the paper: one work item), nearest (one work item, "

@@ -65,7 +65,7 @@ struct NodeRunOptions {
   double schedule_window_us = 200;      ///< virtual-time scheduling window, microseconds
   std::string mail_wakeups = "auto";   ///< --mail-wakeups: auto, scheduled or immediate
   std::string clock = "cpu";            ///< cpu or model (nodes::ComputeClock)
-  std::string work_requests = "ring";   ///< ring or last-grantor (nodes::WorkRequestRoute)
+  std::string work_requests = "ring";   ///< ring, last-grantor or off (nodes::WorkRequestRoute)
   std::string work_grants = "item";     ///< item, nearest or half (nodes::WorkGrant)
   std::string submaps = "square";       ///< square or balanced (nodes::SubmapRule)
   double timeout_s = 0;                 ///< per run, wall seconds; 0 = none

@@ -72,7 +72,10 @@ std::string work_line(const nlohmann::json& m) {
   if (const auto* r = number(w, "requests_sent")) add(line, fmt::format("{} work requests", r->get<std::uint64_t>()));
   const auto* grants = text(m, "work_grants");
   const auto* requests = text(m, "work_requests");
-  if (grants && requests) add(line, fmt::format("{} grants, {} requests", *grants, *requests));
+  if (requests && *requests == "off")
+    add(line, "work requests off (static submaps only)");
+  else if (grants && requests)
+    add(line, fmt::format("{} grants, {} requests", *grants, *requests));
   return "work: " + line;
 }
 

@@ -349,11 +349,17 @@ const char* compute_clock_name(ComputeClock c) { return c == ComputeClock::kMode
 WorkRequestRoute parse_work_request_route(const std::string& text) {
   if (text == "ring") return WorkRequestRoute::kRing;
   if (text == "last-grantor") return WorkRequestRoute::kLastGrantor;
-  throw std::invalid_argument("work requests go by ring or last-grantor, got '" + text + "'");
+  if (text == "off") return WorkRequestRoute::kOff;
+  throw std::invalid_argument("work requests go by ring or last-grantor, or are off, got '" + text + "'");
 }
 
 const char* work_request_route_name(WorkRequestRoute r) {
-  return r == WorkRequestRoute::kLastGrantor ? "last-grantor" : "ring";
+  switch (r) {
+    case WorkRequestRoute::kLastGrantor: return "last-grantor";
+    case WorkRequestRoute::kOff: return "off";
+    case WorkRequestRoute::kRing: break;
+  }
+  return "ring";
 }
 
 WorkGrant parse_work_grant(const std::string& text) {

@@ -107,7 +107,7 @@ struct RunReport {
   std::string network;         ///< preset name
   std::string topology;
   std::string clock;           ///< "cpu" or "model" (MachineParams::clock)
-  std::string work_requests;   ///< "ring" or "last-grantor" (MachineParams::work_request_route)
+  std::string work_requests;   ///< "ring", "last-grantor" or "off" (MachineParams::work_request_route)
   std::string work_grants;     ///< "item" or "half" (MachineParams::work_grant)
   /// The virtual-time scheduler's work (scheduler.h): compute permits
   /// granted, of them taken back a window ahead, and service permits
@@ -176,9 +176,9 @@ class Machine {
 ComputeClock parse_compute_clock(const std::string& text);
 /// "cpu" or "model".
 const char* compute_clock_name(ComputeClock c);
-/// "ring" or "last-grantor" (--work-requests). Throws std::invalid_argument naming the text.
+/// "ring", "last-grantor" or "off" (--work-requests). Throws std::invalid_argument naming the text.
 WorkRequestRoute parse_work_request_route(const std::string& text);
-/// "ring" or "last-grantor".
+/// "ring", "last-grantor" or "off".
 const char* work_request_route_name(WorkRequestRoute r);
 /// "item", "nearest" or "half" (--work-grants). Throws std::invalid_argument naming the text.
 WorkGrant parse_work_grant(const std::string& text);

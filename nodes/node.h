@@ -50,8 +50,12 @@ namespace raynode::nodes {
 /// Where an idle node sends a work request (work.h): kRing, the paper's
 /// rule, to its ring successor; kLastGrantor first straight to the node that
 /// granted its last work item (likely still busy), and on to the ring from
-/// the requester's successor if that node has none left.
-enum class WorkRequestRoute : std::uint8_t { kRing, kLastGrantor };
+/// the requester's successor if that node has none left. kOff sends none:
+/// a node whose submap is rendered is done (static submaps only, the
+/// baseline the requests' gain is measured against; which node renders
+/// which pixel, and so every svm page count, no longer depends on the
+/// host's thread scheduling).
+enum class WorkRequestRoute : std::uint8_t { kRing, kLastGrantor, kOff };
 
 /// What a busy node grants a work request (work.h): kItem, the paper's rule,
 /// one work item from the far end of its submap; kHalf the far half of its

@@ -398,6 +398,7 @@ WorkStats run_work_farm(NodeContext& ctx, const Rect& submap, std::int32_t item_
       farm.stats.pixels += std::uint64_t(grant.area());
       continue;
     }
+    if (ctx.work_request_route() == WorkRequestRoute::kOff) break;  // static submaps only: our work is over
     if (!request_out) {
       if (batch) batch->flush(ctx);  // the host gets our pixels before we idle
       NodeId first = ctx.topology().ring_next(ctx.id());

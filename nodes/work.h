@@ -16,7 +16,8 @@
 // request starts its walk at the node that granted the requester's last
 // item (likely still busy) instead of at the requester's successor; either
 // way it passes every other node once, skipping its origin, before it
-// returns. Finished pixels go to the host, which
+// returns. With WorkRequestRoute::kOff a node sends no request: its work
+// ends with its submap. Finished pixels go to the host, which
 // assembles the frame and, once every node has reported done, shuts the
 // machine down.
 //

@@ -66,6 +66,16 @@ TEST_CASE("run summary: the machine and work lines carry the report's figures") 
   CHECK(has(w, "nearest grants, last-grantor requests"));
 }
 
+TEST_CASE("run summary: work requests off read as static submaps, not as a route") {
+  const json machine = {{"count", 4},
+                        {"work_grants", "item"},
+                        {"work_requests", "off"},
+                        {"work", {{"grants", 0}, {"requests_sent", 0}}}};
+  const std::string w = line_of(node_run_summary(machine, json(), json()), "work: ");
+  CHECK(has(w, "work requests off (static submaps only)"));
+  CHECK_FALSE(has(w, "off requests"));
+}
+
 TEST_CASE("run summary: times read in us, ms or s, and a missing key is left out, not invented") {
   auto machine_line = [](double tp) {
     return node_run_summary(json{{"count", 2}, {"parallel_time_s", tp}}, json(), json()).at(0);

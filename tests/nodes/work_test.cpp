@@ -338,6 +338,38 @@ TEST_CASE("work: every pixel is rendered exactly once for N in {1, 2, 3, 7, 16, 
   }
 }
 
+TEST_CASE("work: with requests off each node renders exactly its own submap, and no node asks or grants") {
+  // The skewed image: with requests the right side's nodes take items from
+  // the costly left (the test above); with them off nobody does, so the
+  // left's nodes end last and T_p grows.
+  const int w = 90, h = 60;
+  for (std::uint32_t n : {1u, 7u, 16u}) {
+    CAPTURE(n);
+    const FarmRun off = run_farm(n, w, h, true, WorkRequestRoute::kOff);
+    CHECK(off.report.work_requests == "off");
+    const std::vector<Rect> maps = make_submaps(w, h, n);
+    for (std::uint32_t i = 0; i < n; ++i)
+      for (int y = maps[i].y0; y < maps[i].y1; ++y)
+        for (int x = maps[i].x0; x < maps[i].x1; ++x) CHECK(off.owner[std::size_t(y) * w + x] == int(i));
+    WorkStats total;
+    for (const WorkStats& s : off.stats) total += s;
+    CHECK(total.pixels == std::uint64_t(w) * h);
+    CHECK(total.requests_sent == 0);
+    CHECK(total.grants_given == 0);
+    CHECK(total.items_received == 0);
+    const NodeCounters c = off.report.total();
+    CHECK(c.sent[std::size_t(MessageType::kWorkRequest)].messages == 0);
+    CHECK(c.sent[std::size_t(MessageType::kNodeDone)].messages == n);
+    if (n > 1) {
+      const FarmRun ring = run_farm(n, w, h, true, WorkRequestRoute::kRing);
+      CHECK(off.report.parallel_time_s > 1.2 * ring.report.parallel_time_s);
+    }
+  }
+  CHECK(parse_work_request_route("off") == WorkRequestRoute::kOff);
+  CHECK(work_request_route_name(WorkRequestRoute::kOff) == std::string("off"));
+  CHECK_THROWS_WITH_AS(parse_work_request_route("none"), doctest::Contains("got 'none'"), std::invalid_argument);
+}
+
 TEST_CASE("work: requests sent first to the last grantor travel fewer hops than around the ring, same coverage") {
   // 64 nodes, the left quarter 20x costlier: the right side's nodes steal
   // item after item from the few busy ones. Round the ring a request passes
