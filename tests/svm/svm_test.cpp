@@ -62,7 +62,7 @@ TEST_CASE("svm: images are bit-identical to sequential for N in {1,2,3,4,7,16,64
   }
 }
 
-TEST_CASE("svm: with half or nearest work grants (--work-grants) images stay bit-identical to sequential") {
+TEST_CASE("svm: with half or nearest work grants (--work-grants), or requests off, images stay bit-identical to sequential") {
   for (const auto& [name, size, tessellate] : {std::tuple{"teapot", 2, 0}, std::tuple{"tetra", 3, 0}}) {
     const testing::BuiltScene b = testing::build_spd(name, size, tessellate);
     core::RenderParams rp = small_params(1, 0).render;
@@ -72,7 +72,8 @@ TEST_CASE("svm: with half or nearest work grants (--work-grants) images stay bit
     // the requester's last item to the node that granted it).
     for (const auto& [grant, route] : {std::pair{nodes::WorkGrant::kHalf, nodes::WorkRequestRoute::kRing},
                                        std::pair{nodes::WorkGrant::kHalf, nodes::WorkRequestRoute::kLastGrantor},
-                                       std::pair{nodes::WorkGrant::kNearest, nodes::WorkRequestRoute::kLastGrantor}})
+                                       std::pair{nodes::WorkGrant::kNearest, nodes::WorkRequestRoute::kLastGrantor},
+                                       std::pair{nodes::WorkGrant::kItem, nodes::WorkRequestRoute::kOff}})
       for (std::uint32_t n : {3u, 16u, 64u})
         for (std::uint32_t cache : {1u, 0u}) {
           CAPTURE(name);
@@ -93,6 +94,7 @@ TEST_CASE("svm: with half or nearest work grants (--work-grants) images stay bit
           for (const nodes::WorkStats& s : r.work) w += s;
           CHECK(w.pixels == std::uint64_t(rp.width * rp.height));
           CHECK(w.items_received >= w.grants_given);
+          if (route == nodes::WorkRequestRoute::kOff) CHECK(w.requests_sent + w.grants_given == 0);
         }
   }
 }
