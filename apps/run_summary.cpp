@@ -64,18 +64,19 @@ std::string work_line(const nlohmann::json& m) {
   std::string line;
   if (m.contains("submaps"))
     if (const auto* rule = text(m["submaps"], "rule")) add(line, *rule + " submaps");
-  if (const auto* g = number(w, "grants")) {
-    std::string grants = fmt::format("{} work items granted", g->get<std::uint64_t>());
-    if (const auto* p = number(w, "pixels_granted")) grants += fmt::format(" ({} pixels)", p->get<std::uint64_t>());
-    add(line, grants);
-  }
-  if (const auto* r = number(w, "requests_sent")) add(line, fmt::format("{} work requests", r->get<std::uint64_t>()));
   const auto* grants = text(m, "work_grants");
   const auto* requests = text(m, "work_requests");
-  if (requests && *requests == "off")
+  if (requests && *requests == "off") {  // no request, no grant: nothing to count
     add(line, "work requests off (static submaps only)");
-  else if (grants && requests)
-    add(line, fmt::format("{} grants, {} requests", *grants, *requests));
+    return "work: " + line;
+  }
+  if (const auto* g = number(w, "grants")) {
+    std::string granted = fmt::format("{} work items granted", g->get<std::uint64_t>());
+    if (const auto* p = number(w, "pixels_granted")) granted += fmt::format(" ({} pixels)", p->get<std::uint64_t>());
+    add(line, granted);
+  }
+  if (const auto* r = number(w, "requests_sent")) add(line, fmt::format("{} work requests", r->get<std::uint64_t>()));
+  if (grants && requests) add(line, fmt::format("{} grants, {} requests", *grants, *requests));
   return "work: " + line;
 }
 
