@@ -108,7 +108,7 @@ struct RunReport {
   std::string topology;
   std::string clock;           ///< "cpu" or "model" (MachineParams::clock)
   std::string work_requests;   ///< "ring", "last-grantor" or "off" (MachineParams::work_request_route)
-  std::string work_grants;     ///< "item" or "half" (MachineParams::work_grant)
+  std::string work_grants;     ///< "item", "nearest" or "half" (MachineParams::work_grant)
   /// The virtual-time scheduler's work (scheduler.h): compute permits
   /// granted, of them taken back a window ahead, and service permits
   /// granted for mail; all 0 with scheduling off.
