@@ -296,7 +296,10 @@ void register_bench_nodes_commands(CLI::App& app) {
                 "paper's object lists)")
       ->check(CLI::Range(0, 1 << 20))
       ->capture_default_str();
-  c->callback([no] { run_bench_nodes(*no); });
+  c->callback([no, c] {
+    check_mode_options(*c, {no->mode}, {.submaps = no->run.submaps, .network = no->run.network});
+    run_bench_nodes(*no);
+  });
 }
 
 }  // namespace raynode::apps

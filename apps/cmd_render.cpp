@@ -76,11 +76,9 @@ struct RenderOptions {
   std::string work_requests = "ring";
   std::string work_grants = "item";
   std::string submaps = "square";
-  bool submaps_given = false;
   // svm
   std::uint32_t page_size = 1024;
   std::string directory_order = "auto";  ///< auto, linear or bricked
-  bool directory_order_given = false;
   std::string cache;  ///< "" = all free memory, "N" pages or "P%" of the database
   // dataflow
   int subsample = 8;
@@ -299,10 +297,6 @@ core::RenderResult render_frame(const RenderOptions& o, const core::Database& db
   if (o.pack_given && o.pack_min > 0 && (o.mode == "replicated" || o.mode == "dataflow"))
     throw UsageError("--pack-cells " + std::to_string(o.pack_min) + " is for --mode sequential, shared or svm; --mode " +
                      o.mode + " walks the paper's object lists (leave --pack-cells out)");
-  if (o.submaps_given && o.mode != "replicated" && o.mode != "svm")
-    throw UsageError("--submaps is for --mode replicated or svm's static submaps, not --mode " + o.mode);
-  if (o.directory_order_given && o.mode != "svm")
-    throw UsageError("--directory-order is for --mode svm's paged cell directory, not --mode " + o.mode);
   if (o.mode == "dataflow") {
     dataflow::DataflowParams dp;
     dp.render = params;
@@ -371,6 +365,7 @@ core::RenderResult render_frame(const RenderOptions& o, const core::Database& db
       throw UsageError(fmt::format("--nodes {} needs a node-emulator mode; --mode {} runs in this process",
                                    o.nodes, o.mode));
     params.mode = core::parse_render_mode(o.mode);
+    params.timeout_s = o.timeout_s;  // the node modes' is their machine's watchdog
     if (accel.embree) return core::render_image(core::EmbreeView(db, *accel.embree), db, params);
     return core::render_image(core::DirectView(db, *accel.grid, accel.blocks ? &*accel.blocks : nullptr), db,
                               params);
@@ -656,7 +651,7 @@ void register_render_command(CLI::App& app) {
   c->add_option("--topology", o->topology, "Node modes: interconnect: hypercube (iPSC/2), ring, torus")
       ->check(CLI::IsMember({"hypercube", "ring", "torus"}))
       ->capture_default_str();
-  c->add_option("--work-item", o->work_item, "Node modes: pixels per work item, WxH")->capture_default_str();
+  c->add_option("--work-item", o->work_item, "replicated, svm: pixels per work item, WxH")->capture_default_str();
   c->add_option("--work-requests", o->work_requests,
                 "replicated, svm: where an idle node asks for work: ring (the paper: to its ring successor, on "
                 "round the ring), last-grantor (first straight to the node that gave it its last item, then "
@@ -698,13 +693,15 @@ void register_render_command(CLI::App& app) {
                 "this many wall seconds (0 = never)")
       ->check(CLI::Range(0.0, 1e9))
       ->capture_default_str();
-  c->add_option("--timeout", o->timeout_s, "Node modes: stop with an error after this many wall seconds (0 = never)")
+  c->add_option("--timeout", o->timeout_s,
+                "Stop with an error (exit 1, no file written) after this many wall seconds (0 = never); in the node "
+                "modes the message names what each node waits for")
       ->check(CLI::NonNegativeNumber);
   c->add_flag("--quiet,-q", o->quiet, "Print nothing on success, no progress line");
   c->callback([o, c] {
     o->pack_given = c->get_option("--pack-cells")->count() > 0;
-    o->directory_order_given = c->get_option("--directory-order")->count() > 0;
-    o->submaps_given = c->get_option("--submaps")->count() > 0;
+    // No option is ignored without a word: one that this mode does not read is a usage error.
+    check_mode_options(*c, {o->mode}, {.submaps = o->submaps, .network = o->network});
     run_render(*o);
   });
 }

@@ -608,7 +608,10 @@ void register_sweep_commands(CLI::App& app) {
       ->capture_default_str();
   n->footer(std::string("Example: raynode sweep nodes teapot:8 --modes svm,dataflow --nodes 1..64 --network ipsc2\n") +
             kCommonFooter);
-  n->callback([no] { run_sweep_nodes(*no); });
+  n->callback([no, n] {
+    check_mode_options(*n, parse_modes(no->modes), {.submaps = no->run.submaps, .network = no->run.network});
+    run_sweep_nodes(*no);
+  });
 
   auto co = std::make_shared<CacheSweepOptions>();
   CLI::App* c = sweep->add_subcommand(
@@ -627,7 +630,10 @@ void register_sweep_commands(CLI::App& app) {
   c->footer(std::string("Examples (the paper's Figures 8-10): raynode sweep cache rings:4 -t 1;  raynode sweep "
                         "cache tetra:9 --cache 0.1..10%,max\n") +
             kCommonFooter);
-  c->callback([co] { run_sweep_cache(*co); });
+  c->callback([co, c] {
+    check_mode_options(*c, {"svm"}, {.submaps = co->run.submaps, .network = co->run.network});
+    run_sweep_cache(*co);
+  });
 
   auto po = std::make_shared<PageSizeSweepOptions>();
   CLI::App* p = sweep->add_subcommand(
@@ -641,7 +647,10 @@ void register_sweep_commands(CLI::App& app) {
                 "One cache size per node as in 'sweep cache' (default: max, all the memory a node has left)");
   p->footer(std::string("T_1 is the one-node run at each page size.\nExample: raynode sweep page-size rings:4 -t 1\n") +
             kCommonFooter);
-  p->callback([po] { run_sweep_page_size(*po); });
+  p->callback([po, p] {
+    check_mode_options(*p, {"svm"}, {.submaps = po->run.submaps, .network = po->run.network});
+    run_sweep_page_size(*po);
+  });
 }
 
 }  // namespace raynode::apps

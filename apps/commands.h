@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "core/scene_source.h"
 
@@ -31,6 +32,25 @@ void add_skip_empty_option(CLI::App& cmd, bool& skip_empty);
 /// triangles are tested in SIMD blocks; 0 = off) to a subcommand;
 /// `pack_min` must outlive the parse.
 void add_pack_cells_option(CLI::App& cmd, std::uint32_t& pack_min);
+
+/// What check_mode_options needs to know besides the modes: the values of
+/// the options that decide whether another is read.
+struct ModeOptionValues {
+  std::string submaps = "square";  ///< --submaps: --subsample is read by replicated and svm only when "balanced"
+  std::string network = "none";    ///< --network: --network-scale is read only by "ipsc2"
+};
+
+/// Refuses options given on `cmd`'s command line that none of `modes`
+/// ("sequential", "shared", "replicated", "svm", "dataflow") reads, so that
+/// no option is silently ignored: a node option (--node-memory, --clock,
+/// --stall-timeout, ...) outside the node modes, the static submaps' and work
+/// requests' options outside replicated and svm, --page-size, --cache and
+/// --directory-order outside svm, --partition and --queue-capacity outside
+/// dataflow, --subsample where neither dataflow nor --submaps balanced
+/// reads it, --network-scale without --network ipsc2. Options `cmd` does
+/// not have, or that were not given, pass. Throws UsageError naming the
+/// option, the modes that read it and the mode(s) given (exit 2).
+void check_mode_options(const CLI::App& cmd, const std::vector<std::string>& modes, const ModeOptionValues& values);
 
 void register_scene_commands(CLI::App& app);
 void register_validate_command(CLI::App& app);

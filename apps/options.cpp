@@ -1,6 +1,9 @@
 // The options several subcommands share (commands.h): the scene, the grid
-// walk's empty-space jumps, packed cells.
+// walk's empty-space jumps, packed cells, and the check that no option is
+// given to a mode that ignores it.
 #include <fmt/core.h>
+
+#include <algorithm>
 
 #include "apps/commands.h"
 #include "core/cell_blocks.h"
@@ -35,6 +38,90 @@ void add_pack_cells_option(CLI::App& cmd, std::uint32_t& pack_min) {
                      "which then pages the blocks (pages of 512 B or more); replicated and dataflow: off only]",
                      raynode::core::kBlockLanes, raynode::core::kDefaultPackMin))
       ->check(CLI::IsMember({"off"}) | CLI::Range(1, 1 << 20));
+}
+
+namespace {
+
+/// "svm", "replicated or svm", "replicated, svm or dataflow".
+std::string or_list(const std::vector<std::string>& items) {
+  std::string s;
+  for (std::size_t i = 0; i < items.size(); ++i) {
+    if (i > 0) s += i + 1 == items.size() ? " or " : ", ";
+    s += items[i];
+  }
+  return s;
+}
+
+/// "--mode svm", or "--modes dataflow,replicated" for several.
+std::string given_modes(const std::vector<std::string>& modes) {
+  std::string s = modes.size() == 1 ? "--mode " : "--modes ";
+  for (std::size_t i = 0; i < modes.size(); ++i) s += (i ? "," : "") + modes[i];
+  return s;
+}
+
+/// An option only some modes read, and what they read it for.
+struct ModeOptionRule {
+  const char* option;
+  std::vector<std::string> modes;
+  const char* what;
+};
+
+const std::vector<ModeOptionRule>& mode_option_rules() {
+  static const std::vector<std::string> kNodeModes{"replicated", "svm", "dataflow"};
+  static const std::vector<std::string> kControl{"replicated", "svm"};
+  static const std::vector<std::string> kSvm{"svm"};
+  static const std::vector<std::string> kDataflow{"dataflow"};
+  static const std::vector<ModeOptionRule> rules{
+      {"--node-memory", kNodeModes, "the emulated machine's memories"},
+      {"--network", kNodeModes, "the emulated machine's network"},
+      {"--network-scale", kNodeModes, "the emulated machine's network"},
+      {"--topology", kNodeModes, "the emulated machine's network"},
+      {"--schedule-window", kNodeModes, "the emulated machine's scheduler"},
+      {"--mail-wakeups", kNodeModes, "the emulated machine's scheduler"},
+      {"--clock", kNodeModes, "the emulated machine's virtual time"},
+      {"--stall-timeout", kNodeModes, "a run on the emulated machine"},
+      {"--work-item", kControl, "static submaps and work requests"},
+      {"--work-requests", kControl, "static submaps and work requests"},
+      {"--work-grants", kControl, "static submaps and work requests"},
+      {"--submaps", kControl, "static submaps and work requests"},
+      {"--page-size", kSvm, "the shared virtual memory's pages"},
+      {"--cache", kSvm, "the shared virtual memory's page cache"},
+      {"--directory-order", kSvm, "the shared virtual memory's cell directory"},
+      {"--partition", kDataflow, "its regions"},
+      {"--queue-capacity", kDataflow, "its ray queues"},
+  };
+  return rules;
+}
+
+}  // namespace
+
+void check_mode_options(const CLI::App& cmd, const std::vector<std::string>& modes, const ModeOptionValues& values) {
+  auto given = [&](const char* name) {
+    const CLI::Option* opt = cmd.get_option_no_throw(name);
+    return opt != nullptr && opt->count() > 0;
+  };
+  auto read_by_any = [&](const std::vector<std::string>& readers) {
+    return std::any_of(modes.begin(), modes.end(), [&](const std::string& m) {
+      return std::find(readers.begin(), readers.end(), m) != readers.end();
+    });
+  };
+  for (const ModeOptionRule& r : mode_option_rules()) {
+    if (!given(r.option) || read_by_any(r.modes)) continue;
+    throw UsageError(fmt::format("{} is for --mode {} ({}), not {}; leave {} out", r.option, or_list(r.modes), r.what,
+                                 given_modes(modes), r.option));
+  }
+  if (given("--network-scale") && values.network != "ipsc2")
+    throw UsageError(fmt::format("--network-scale is for --network ipsc2 (this machine's seconds per ray), not "
+                                 "--network {}; leave --network-scale out",
+                                 values.network));
+  // --subsample: dataflow's load estimate, or the one that cuts balanced submaps.
+  if (given("--subsample") && !read_by_any({"dataflow"})) {
+    const bool balanced = values.submaps == "balanced";
+    if (!balanced || !read_by_any({"replicated", "svm"}))
+      throw UsageError(fmt::format("--subsample is for --mode dataflow, or --mode replicated or svm with --submaps "
+                                   "balanced (the host's load estimate), not {}{}; leave --subsample out",
+                                   given_modes(modes), read_by_any({"replicated", "svm"}) ? " with --submaps square" : ""));
+  }
 }
 
 }  // namespace raynode::apps

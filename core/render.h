@@ -18,8 +18,11 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
+#include <fmt/core.h>
+
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -58,9 +61,21 @@ struct RenderParams {
   /// mode) so that another thread can show progress. Never read by the
   /// renderer; it does not change the image.
   std::atomic<std::uint64_t>* progress = nullptr;
+  /// Wall seconds render_image may take, 0 = no limit: it reads the clock
+  /// after each row (sequential) or tile (shared) and throws RenderTimeout
+  /// once the limit has passed (the node modes have their own watchdog,
+  /// nodes::MachineParams::timeout_s). Does not change the image.
+  double timeout_s = 0;
 
   /// True when any AOV (first-hit image) is requested.
   bool any_aov() const { return depth_aov || normal_aov || primitive_aov; }
+};
+
+/// Thrown by render_image when RenderParams::timeout_s has passed; the
+/// message names the limit and the pixels done.
+class RenderTimeout : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
 };
 
 /// A rendered frame. Every AOV describes the first hit of the primary ray
@@ -159,7 +174,8 @@ void render_rect(const View& view, const ShadingContext& ctx, const Camera& came
 /// row. Shared: tbb::parallel_for over tile_size^2 tiles, one ShadingScratch
 /// per worker thread (tbb::enumerable_thread_specific), counters merged at
 /// the end. `view` is any database view (DirectView, EmbreeView, ...) over
-/// `db`. Throws std::invalid_argument for bad params or camera.
+/// `db`. Throws std::invalid_argument for bad params or camera,
+/// RenderTimeout when params.timeout_s has passed.
 template <class View>
 RenderResult render_image(const View& view, const Database& db, const RenderParams& params) {
   if (params.spp < 1) throw std::invalid_argument("spp must be >= 1");
@@ -177,11 +193,24 @@ RenderResult render_image(const View& view, const Database& db, const RenderPara
   if (params.normal_aov) result.normal = Image(w, h, 3);
   if (params.primitive_aov) result.primitive = Image(w, h, 1);
   std::atomic<std::uint64_t>* progress = params.progress;
+  // --timeout: the clock is read once per row or tile (~20 ns against a row's
+  // tens of microseconds at least).
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point start = Clock::now();
+  std::atomic<std::uint64_t> pixels_done{0};
+  auto check_time = [&](std::uint64_t pixels) {
+    if (params.timeout_s <= 0) return;
+    const std::uint64_t done = pixels_done.fetch_add(pixels, std::memory_order_relaxed) + pixels;
+    if (std::chrono::duration<double>(Clock::now() - start).count() >= params.timeout_s)
+      throw RenderTimeout(fmt::format("the render did not finish within {} s (--timeout): {} of {} pixels done",
+                                      params.timeout_s, done, std::uint64_t(w) * std::uint64_t(h)));
+  };
   if (params.mode == RenderMode::kSequential) {
     ShadingScratch scratch;
     for (int y = 0; y < h; ++y) {
       render_rect(v, ctx, camera, params, 0, y, w, y + 1, result, scratch);
       if (progress) progress->fetch_add(std::uint64_t(w), std::memory_order_relaxed);
+      check_time(std::uint64_t(w));
     }
     result.stats = scratch.stats;
     result.stats.traversal = scratch.traversal.stats;
@@ -197,6 +226,7 @@ RenderResult render_image(const View& view, const Database& db, const RenderPara
       const int x1 = std::min(x0 + ts, w), y1 = std::min(y0 + ts, h);
       render_rect(v, ctx, camera, params, x0, y0, x1, y1, result, scratch);
       if (progress) progress->fetch_add(std::uint64_t(x1 - x0) * std::uint64_t(y1 - y0), std::memory_order_relaxed);
+      check_time(std::uint64_t(x1 - x0) * std::uint64_t(y1 - y0));
     }
   });
   for (const ShadingScratch& s : scratches) {

@@ -1,0 +1,76 @@
+// apps/options.cpp: check_mode_options refuses an option that none of the
+// given modes reads, and lets through every option that one of them reads.
+#include <doctest/doctest.h>
+
+#include <CLI/CLI.hpp>
+#include <string>
+#include <vector>
+
+#include "apps/commands.h"
+
+using namespace raynode;
+
+namespace {
+
+/// A command with every mode-dependent option (as render has them), parsed
+/// from `args`; returns the message of check_mode_options, "" if it passed.
+std::string check(const std::vector<std::string>& args, const std::vector<std::string>& modes,
+                  apps::ModeOptionValues values = {}) {
+  CLI::App app;
+  std::string text;
+  for (const char* name : {"--node-memory", "--network", "--network-scale", "--topology", "--schedule-window",
+                           "--mail-wakeups", "--clock", "--stall-timeout", "--timeout", "--work-item",
+                           "--work-requests", "--work-grants", "--submaps", "--page-size", "--cache",
+                           "--directory-order", "--partition", "--queue-capacity", "--subsample"})
+    app.add_option(name, text);
+  std::vector<std::string> argv(args.rbegin(), args.rend());  // CLI11 takes them reversed
+  app.parse(argv);
+  try {
+    apps::check_mode_options(app, modes, values);
+  } catch (const apps::UsageError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST_CASE("mode options: an option no given mode reads is refused, naming the option, its modes and the mode") {
+  CHECK(check({"--cache", "3"}, {"dataflow"}) ==
+        "--cache is for --mode svm (the shared virtual memory's page cache), not --mode dataflow; leave --cache out");
+  CHECK(check({"--partition", "equal"}, {"svm"}).starts_with("--partition is for --mode dataflow (its regions), not "
+                                                             "--mode svm"));
+  CHECK(check({"--work-grants", "half"}, {"dataflow"})
+            .starts_with("--work-grants is for --mode replicated or svm (static submaps and work requests)"));
+  CHECK(check({"--node-memory", "1MiB"}, {"sequential"})
+            .starts_with("--node-memory is for --mode replicated, svm or dataflow"));
+  CHECK(check({"--clock", "model"}, {"shared"}).find("not --mode shared") != std::string::npos);
+  CHECK(check({"--queue-capacity", "4"}, {"svm", "replicated"}).find("not --modes svm,replicated") !=
+        std::string::npos);
+  CHECK(check({"--directory-order", "bricked"}, {"replicated"}).starts_with("--directory-order is for --mode svm"));
+}
+
+TEST_CASE("mode options: every option a given mode reads passes, and options not given are not checked") {
+  CHECK(check({}, {"sequential"}) == "");
+  CHECK(check({"--timeout", "5"}, {"sequential"}) == "");  // every mode has a time limit
+  CHECK(check({"--cache", "3", "--page-size", "512", "--directory-order", "linear"}, {"svm"}) == "");
+  CHECK(check({"--partition", "equal", "--queue-capacity", "4"}, {"dataflow"}) == "");
+  CHECK(check({"--work-item", "4x4", "--work-requests", "off", "--submaps", "balanced"}, {"replicated"}) == "");
+  CHECK(check({"--node-memory", "1MiB", "--clock", "model", "--stall-timeout", "9"}, {"dataflow"}) == "");
+  // A sweep over several modes: read by one of them is enough.
+  CHECK(check({"--cache", "3", "--partition", "equal"}, {"svm", "dataflow", "replicated"}) == "");
+}
+
+TEST_CASE("mode options: --subsample and --network-scale are refused where what reads them is off") {
+  // --subsample: dataflow's estimate, or balanced submaps' in replicated and svm.
+  CHECK(check({"--subsample", "4"}, {"dataflow"}) == "");
+  CHECK(check({"--subsample", "4"}, {"svm"}, {.submaps = "balanced"}) == "");
+  CHECK(check({"--subsample", "4"}, {"svm"}, {.submaps = "square"}).find("not --mode svm with --submaps square") !=
+        std::string::npos);
+  CHECK(check({"--subsample", "4"}, {"sequential"}, {.submaps = "balanced"}).starts_with("--subsample is for"));
+  // --network-scale: only the ipsc2 model scales to this machine.
+  CHECK(check({"--network-scale", "0.01"}, {"svm"}, {.network = "ipsc2"}) == "");
+  CHECK(check({"--network-scale", "0.01"}, {"svm"}, {.network = "cluster"}) ==
+        "--network-scale is for --network ipsc2 (this machine's seconds per ray), not --network cluster; leave "
+        "--network-scale out");
+}
