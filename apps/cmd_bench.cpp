@@ -160,7 +160,7 @@ void register_bench_command(CLI::App& app) {
   c->add_option("--width", o->width, "Image width for primary rays")->check(CLI::Range(1, 8192));
   c->add_option("--height", o->height, "Image height for primary rays")->check(CLI::Range(1, 8192));
   c->add_option("--repeat", o->repeat, "Runs per accelerator; the best is kept")->check(CLI::Range(1, 100));
-  c->add_option("--grid-density", o->density, "Grid cells per primitive")->check(CLI::Range(0.01f, 1000.0f));
+  c->add_option("--grid-density", o->density, "Grid cells per primitive")->check(finite_range(0.01, 1000));
   add_skip_empty_option(*c, o->skip_empty);
   add_pack_cells_option(*c, o->pack_min);
   c->add_flag("--json", o->json, "Print JSON");

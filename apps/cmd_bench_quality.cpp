@@ -749,7 +749,7 @@ void register_bench_quality_command(CLI::App& app) {
   c->add_option("--min-time", o->min_time_s,
                 "Seconds of rendering per point: short renders are repeated beyond --repeat until this much is spent "
                 "(at most 1000 renders); the fastest is kept")
-      ->check(CLI::Range(0.0, 3600.0))
+      ->check(finite_range(0, 3600))
       ->capture_default_str();
   c->add_option("--mode", o->mode, "sequential (one thread, the default) or shared (TBB threads on all cores)")
       ->check(CLI::IsMember({"sequential", "shared"}))

@@ -598,7 +598,7 @@ void register_render_command(CLI::App& app) {
   c->add_option("--min-weight", o->min_weight,
                 "Skip reflected/refracted rays whose weight (product of Ks, T along the path) is below this "
                 "(0 = off)")
-      ->check(CLI::Range(0.0f, 1.0f))
+      ->check(finite_range(0, 1))
       ->capture_default_str();
   c->add_option("--stats", o->stats_path,
                 "Write counters (rays per kind, skips per reason, intersection tests, cells) and timings as "
@@ -647,7 +647,7 @@ void register_render_command(CLI::App& app) {
       ->capture_default_str();
   c->add_option("--network-scale", o->network_scale,
                 "ipsc2: this machine's seconds per ray (default: measured at start, ~0.1 s)")
-      ->check(CLI::PositiveNumber);
+      ->check(finite_positive());
   c->add_option("--topology", o->topology, "Node modes: interconnect: hypercube (iPSC/2), ring, torus")
       ->check(CLI::IsMember({"hypercube", "ring", "torus"}))
       ->capture_default_str();
@@ -678,6 +678,7 @@ void register_render_command(CLI::App& app) {
                 "Node modes: virtual-time scheduling window in microseconds: a node this far ahead of a waiting "
                 "one hands the CPU over (smaller = closer to a real parallel machine, more thread switches; "
                 "negative = off, the OS schedules the node threads)")
+      ->check(finite_range(-kNoBound, kNoBound))
       ->capture_default_str();
   c->add_option("--mail-wakeups", o->mail_wakeups, kMailWakeupsHelp)
       ->check(CLI::IsMember({"auto", "scheduled", "immediate"}))
@@ -691,12 +692,12 @@ void register_render_command(CLI::App& app) {
   c->add_option("--stall-timeout", o->stall_timeout_s,
                 "Node modes: stop with an error naming what each node waits for when no message was sent for "
                 "this many wall seconds (0 = never)")
-      ->check(CLI::Range(0.0, 1e9))
+      ->check(finite_range(0, 1e9))
       ->capture_default_str();
   c->add_option("--timeout", o->timeout_s,
                 "Stop with an error (exit 1, no file written) after this many wall seconds (0 = never); in the node "
                 "modes the message names what each node waits for")
-      ->check(CLI::NonNegativeNumber);
+      ->check(finite_range(0, kNoBound));
   c->add_flag("--quiet,-q", o->quiet, "Print nothing on success, no progress line");
   c->callback([o, c] {
     o->pack_given = c->get_option("--pack-cells")->count() > 0;

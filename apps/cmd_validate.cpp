@@ -119,9 +119,9 @@ void register_validate_command(CLI::App& app) {
   c->add_option("--random-rays", o->params.random_rays, "Number of random rays")->check(CLI::Range(0, 100000000));
   c->add_option("--seed", o->params.seed, "Random seed");
   c->add_option("--t-tolerance", o->params.t_rel, "Relative tolerance on the hit distance")
-      ->check(CLI::Range(0.0f, 1.0f));
+      ->check(finite_range(0, 1));
   c->add_option("--grid-density", o->density, "Grid cells per primitive (resolution heuristic)")
-      ->check(CLI::Range(0.01f, 1000.0f));
+      ->check(finite_range(0.01, 1000));
   add_skip_empty_option(*c, o->skip_empty);
   add_pack_cells_option(*c, o->params.pack_min);
   c->callback([o] { run_validate(*o); });

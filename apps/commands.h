@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 
 #include <cstdint>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -32,6 +33,17 @@ void add_skip_empty_option(CLI::App& cmd, bool& skip_empty);
 /// triangles are tested in SIMD blocks; 0 = off) to a subcommand;
 /// `pack_min` must outlive the parse.
 void add_pack_cells_option(CLI::App& cmd, std::uint32_t& pack_min);
+
+/// A CLI11 check for a floating-point option: a finite number in [lo, hi]
+/// (either bound may be +-infinity, meaning none). NaN and infinities are
+/// refused, "must be a finite number in [0, 1], got 'nan'": CLI::Range
+/// lets NaN through, as every compare with it is false, and prints an open
+/// bound as 1.797...e308 written out in full.
+CLI::Validator finite_range(double lo, double hi);
+/// finite_range's open bound.
+inline constexpr double kNoBound = std::numeric_limits<double>::infinity();
+/// finite_range for a number > 0 ("must be a finite number > 0").
+CLI::Validator finite_positive();
 
 /// What check_mode_options needs to know besides the modes: the values of
 /// the options that decide whether another is read.

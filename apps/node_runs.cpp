@@ -33,7 +33,7 @@ void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) 
       ->capture_default_str();
   c.add_option("--network-scale", o.network_scale,
                "ipsc2: this machine's seconds per ray (default: measured once at start)")
-      ->check(CLI::PositiveNumber);
+      ->check(finite_positive());
   c.add_option("--topology", o.topology, "Interconnect: hypercube (iPSC/2), ring, torus")
       ->check(CLI::IsMember({"hypercube", "ring", "torus"}))
       ->capture_default_str();
@@ -60,6 +60,7 @@ void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) 
       ->capture_default_str();
   c.add_option("--schedule-window", o.schedule_window_us,
                "Virtual-time scheduling window in microseconds (negative = off, the OS schedules the node threads)")
+      ->check(finite_range(-kNoBound, kNoBound))
       ->capture_default_str();
   c.add_option("--mail-wakeups", o.mail_wakeups, kMailWakeupsHelp)
       ->check(CLI::IsMember({"auto", "scheduled", "immediate"}))
@@ -70,7 +71,7 @@ void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) 
       ->check(CLI::IsMember({"cpu", "model"}))
       ->capture_default_str();
   c.add_option("--timeout", o.timeout_s, "Stop a run with an error after this many wall seconds (0 = never)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(finite_range(0, kNoBound));
   c.add_option("--repeat", o.repeat, "Runs per point; the one with the lowest T_p is kept (best of)")
       ->check(CLI::Range(1, 100))
       ->capture_default_str();

@@ -4,6 +4,9 @@
 #include <fmt/core.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
 
 #include "apps/commands.h"
 #include "core/cell_blocks.h"
@@ -38,6 +41,44 @@ void add_pack_cells_option(CLI::App& cmd, std::uint32_t& pack_min) {
                      "which then pages the blocks (pages of 512 B or more); replicated and dataflow: off only]",
                      raynode::core::kBlockLanes, raynode::core::kDefaultPackMin))
       ->check(CLI::IsMember({"off"}) | CLI::Range(1, 1 << 20));
+}
+
+namespace {
+
+/// The number `text` spells, whole (strtod: "nan" and "inf" included);
+/// false if it is not one.
+bool parse_double(const std::string& text, double& v) {
+  char* end = nullptr;
+  v = std::strtod(text.c_str(), &end);
+  return end != text.c_str() && *end == '\0';
+}
+
+}  // namespace
+
+CLI::Validator finite_range(double lo, double hi) {
+  std::string what = "a finite number";
+  if (std::isfinite(lo) && std::isfinite(hi)) what += fmt::format(" in [{:g}, {:g}]", lo, hi);
+  else if (std::isfinite(lo)) what += fmt::format(" >= {:g}", lo);
+  else if (std::isfinite(hi)) what += fmt::format(" <= {:g}", hi);
+  return CLI::Validator(
+      [lo, hi, what](std::string& text) -> std::string {
+        double v = 0;
+        if (!parse_double(text, v)) return fmt::format("must be {}, got '{}'", what, text);
+        if (!std::isfinite(v) || v < lo || v > hi) return fmt::format("must be {}, got '{}'", what, text);
+        return {};
+      },
+      "FLOAT");
+}
+
+CLI::Validator finite_positive() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        double v = 0;
+        if (!parse_double(text, v) || !std::isfinite(v) || !(v > 0))
+          return fmt::format("must be a finite number > 0, got '{}'", text);
+        return {};
+      },
+      "FLOAT:POSITIVE");
 }
 
 namespace {

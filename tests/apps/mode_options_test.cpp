@@ -74,3 +74,40 @@ TEST_CASE("mode options: --subsample and --network-scale are refused where what 
         "--network-scale is for --network ipsc2 (this machine's seconds per ray), not --network cluster; leave "
         "--network-scale out");
 }
+
+namespace {
+
+/// The message of `check` on `text`, "" if it passes.
+std::string validate(const CLI::Validator& check, std::string text) { return check(text); }
+
+}  // namespace
+
+TEST_CASE("finite range: NaN and infinities are refused where CLI::Range lets NaN through") {
+  const CLI::Validator unit = apps::finite_range(0, 1);
+  CHECK(validate(unit, "0") == "");
+  CHECK(validate(unit, "0.25") == "");
+  CHECK(validate(unit, "1") == "");
+  CHECK(validate(unit, "nan") == "must be a finite number in [0, 1], got 'nan'");
+  CHECK(validate(unit, "-nan") != "");
+  CHECK(validate(unit, "inf") != "");
+  CHECK(validate(unit, "1.5") != "");
+  CHECK(validate(unit, "-0.1") != "");
+  CHECK(validate(unit, "0.5x") != "");
+  CHECK(validate(unit, "") != "");
+  // CLI::Range itself passes NaN: the reason for finite_range.
+  std::string nan = "nan";
+  CHECK(CLI::Range(0.0, 1.0)(nan) == "");
+  // Open bounds.
+  const CLI::Validator at_least_0 = apps::finite_range(0, apps::kNoBound);
+  CHECK(validate(at_least_0, "1e300") == "");
+  CHECK(validate(at_least_0, "inf") == "must be a finite number >= 0, got 'inf'");
+  const CLI::Validator any = apps::finite_range(-apps::kNoBound, apps::kNoBound);
+  CHECK(validate(any, "-200") == "");
+  CHECK(validate(any, "nan") == "must be a finite number, got 'nan'");
+  CHECK(validate(any, "-inf") != "");
+  const CLI::Validator positive = apps::finite_positive();
+  CHECK(validate(positive, "1e-9") == "");
+  CHECK(validate(positive, "0") == "must be a finite number > 0, got '0'");
+  CHECK(validate(positive, "nan") != "");
+  CHECK(validate(positive, "inf") != "");
+}
