@@ -161,7 +161,8 @@ void check_mode_options(const CLI::App& cmd, const std::vector<std::string>& mod
     if (!balanced || !read_by_any({"replicated", "svm"}))
       throw UsageError(fmt::format("--subsample is for --mode dataflow, or --mode replicated or svm with --submaps "
                                    "balanced (the host's load estimate), not {}{}; leave --subsample out",
-                                   given_modes(modes), read_by_any({"replicated", "svm"}) ? " with --submaps square" : ""));
+                                   given_modes(modes),
+                                   read_by_any({"replicated", "svm"}) ? " with --submaps square" : ""));
   }
 }
 

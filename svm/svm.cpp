@@ -101,11 +101,18 @@ std::uint32_t cache_frames_for(const PageLayout& layout, const SvmParams& params
     const std::size_t per_node_pages =
         budget > fixed + (n > 1 ? frame_cost : 0) ? (budget - fixed - (n > 1 ? frame_cost : 0)) / ps : 0;
     const std::size_t hold = per_node_pages * ps * n;
+    // When a node's own overhead leaves no room for a page, more nodes do not
+    // help: its mailbox grows with the node count (2 slots per node).
+    const char* advice = per_node_pages > 0 ? "use more nodes, more --node-memory or a smaller scene"
+                         : n > 1            ? "use more --node-memory or fewer nodes (each node's mailbox grows "
+                                              "with the node count)"
+                                            : "use more --node-memory";
     throw std::runtime_error(fmt::format(
-        "svm mode: the database needs {} ({} pages of {} B), {} nodes x {} hold {} for pages (each node keeps {} "
-        "for its page table, mailbox and buffers{}); use more nodes, more --node-memory or a smaller scene",
-        nodes::format_bytes(layout.bytes()), layout.pages, ps, n, nodes::format_bytes(budget),
-        nodes::format_bytes(hold), nodes::format_bytes(fixed), n > 1 ? ", and one cache page" : ""));
+        "svm mode: the database needs {} ({} pages of {} B), {} {} x {} hold {} for pages (each node keeps {} "
+        "for its page table, mailbox and buffers{}); {}",
+        nodes::format_bytes(layout.bytes()), layout.pages, ps, n, n == 1 ? "node" : "nodes",
+        nodes::format_bytes(budget),
+        nodes::format_bytes(hold), nodes::format_bytes(fixed), n > 1 ? ", and one cache page" : "", advice));
   }
   // Frames beyond the pager's 4 GiB (with the list buffer) are never given.
   const std::size_t addressable = kPagerMaxFrameBytes / ps > home + 1 ? kPagerMaxFrameBytes / ps - home - 1 : 0;
