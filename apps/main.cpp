@@ -5,6 +5,7 @@
 
 #include <cstdio>
 #include <exception>
+#include <new>
 
 #include "apps/commands.h"
 #include "core/nff.h"
@@ -44,6 +45,10 @@ int main(int argc, char** argv) {
   } catch (const std::invalid_argument& e) {
     fmt::print(stderr, "raynode: error: {}\n", e.what());
     return 2;
+  } catch (const std::bad_alloc&) {
+    fmt::print(stderr, "raynode: error: out of memory (std::bad_alloc): the scene, its grid or the image needs more "
+                       "memory than this process could get; try a smaller scene, -t or image\n");
+    return 1;
   } catch (const std::exception& e) {
     fmt::print(stderr, "raynode: error: {}\n", e.what());
     return 1;

@@ -8,6 +8,7 @@
 // optionally tessellate_scene -> make_database.
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -37,6 +38,13 @@ Scene make_spd_scene(const SpdParams& params);
 /// Replaces, in place and in file order, every sphere by 12*R^2 triangles
 /// (a cube projected onto the sphere) and every cone/cylinder by 8*R
 /// triangles, emitted as `pp` patches exactly as SPD's -t R does. R >= 1.
+/// Throws std::invalid_argument (naming the counts) for R < 1 or when the
+/// result would exceed kMaxTessellatedTriangles new triangles; the scene is
+/// then unchanged.
 void tessellate_scene(Scene& scene, int resolution);
+
+/// Most triangles tessellate_scene makes (2^25: ~2 GiB of 64-byte
+/// primitive records, several times the largest SPD scene).
+inline constexpr std::size_t kMaxTessellatedTriangles = std::size_t(1) << 25;
 
 }  // namespace raynode::core

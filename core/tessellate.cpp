@@ -15,6 +15,8 @@
 //
 // Every number is computed in double from the float scene, as SPD computes
 // in double, then stored as float.
+#include <fmt/core.h>
+
 #include <array>
 #include <cmath>
 #include <stdexcept>
@@ -185,7 +187,13 @@ void tessellate_scene(Scene& scene, int resolution) {
   if (spheres == 0 && cones == 0) return;
 
   const std::size_t r = static_cast<std::size_t>(resolution);
-  const std::size_t new_patches = spheres * 12 * r * r + cones * 8 * r;
+  const std::size_t new_patches = spheres * 12 * r * r + cones * 8 * r;  // r <= INT_MAX: no overflow below 2^64 / 12 r^2
+  if (new_patches > kMaxTessellatedTriangles)
+    throw std::invalid_argument(fmt::format(
+        "tessellate {}: {} spheres x {} triangles and {} cones x {} make {} triangles, more than the {} supported "
+        "(~{} GiB of primitive records); use a smaller -t or scene",
+        resolution, spheres, 12 * r * r, cones, 8 * r, new_patches, kMaxTessellatedTriangles,
+        (kMaxTessellatedTriangles * 64) >> 30));
   Scene out;
   out.view = scene.view;
   out.has_view = scene.has_view;

@@ -342,6 +342,20 @@ TEST_CASE("spd: tessellate_scene rejects a resolution below 1") {
   CHECK_THROWS_AS(tessellate_scene(scene, 0), std::invalid_argument);
 }
 
+TEST_CASE("spd: tessellate_scene refuses a result beyond kMaxTessellatedTriangles, naming the counts, and leaves the scene") {
+  Scene scene = make("balls", 1);  // 10 spheres
+  const std::size_t shapes = scene.shapes.size();
+  // 10 x 12 x 530^2 = 33,708,000 > 2^25; 10 x 12 x 528^2 = 33,454,080 fits.
+  CHECK_THROWS_WITH_AS(tessellate_scene(scene, 530),
+                       doctest::Contains("10 spheres x 3370800 triangles and 0 cones x 4240 make 33708000 triangles, "
+                                         "more than the 33554432 supported"),
+                       std::invalid_argument);
+  CHECK(scene.shapes.size() == shapes);
+  Scene small = make("balls", 1);
+  tessellate_scene(small, 2);
+  CHECK(small.shapes.size() == shapes - 10 + 10 * 12 * 4);
+}
+
 TEST_CASE("spd: spd_names lists the five generators") {
   const std::vector<std::string> names = spd_names();
   CHECK(names == std::vector<std::string>{"teapot", "mount", "rings", "tetra", "balls"});
