@@ -56,10 +56,11 @@ bool parse_double(const std::string& text, double& v) {
 }  // namespace
 
 CLI::Validator finite_range(double lo, double hi) {
-  std::string what = "a finite number";
-  if (std::isfinite(lo) && std::isfinite(hi)) what += fmt::format(" in [{:g}, {:g}]", lo, hi);
-  else if (std::isfinite(lo)) what += fmt::format(" >= {:g}", lo);
-  else if (std::isfinite(hi)) what += fmt::format(" <= {:g}", hi);
+  std::string bounds;  // " in [0, 1]", " >= 0", ""
+  if (std::isfinite(lo) && std::isfinite(hi)) bounds = fmt::format(" in [{:g}, {:g}]", lo, hi);
+  else if (std::isfinite(lo)) bounds = fmt::format(" >= {:g}", lo);
+  else if (std::isfinite(hi)) bounds = fmt::format(" <= {:g}", hi);
+  const std::string what = "a finite number" + bounds;
   return CLI::Validator(
       [lo, hi, what](std::string& text) -> std::string {
         double v = 0;
@@ -67,7 +68,7 @@ CLI::Validator finite_range(double lo, double hi) {
         if (!std::isfinite(v) || v < lo || v > hi) return fmt::format("must be {}, got '{}'", what, text);
         return {};
       },
-      "FLOAT");
+      bounds.empty() ? "FLOAT (finite)" : "FLOAT" + bounds);
 }
 
 CLI::Validator finite_positive() {
@@ -78,7 +79,7 @@ CLI::Validator finite_positive() {
           return fmt::format("must be a finite number > 0, got '{}'", text);
         return {};
       },
-      "FLOAT:POSITIVE");
+      "FLOAT > 0");
 }
 
 namespace {
