@@ -154,6 +154,12 @@ void NodeContext::await_reply(Awaited what) {
   if (id_ != kHost && machine_->scheduler->enabled()) machine_->scheduler->await_reply(id_, now(), what);
 }
 
+bool NodeContext::peer_reads_mail(NodeId peer) const {
+  const Scheduler& s = *machine_->scheduler;
+  if (peer == kHost || !s.scheduled_mail()) return true;
+  return s.granted_flag(peer).load(std::memory_order_relaxed) || s.serving_flag(peer).load(std::memory_order_relaxed);
+}
+
 void NodeContext::wait_for_mail(double timeout_s) {
   check_stop();
   if (!backlog_.empty()) return;

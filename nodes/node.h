@@ -217,6 +217,13 @@ class NodeContext {
   /// return): until it runs again its clock holds the others back
   /// (scheduler.h). The caller must keep serving its mail while it waits.
   void await_reply(Awaited what = Awaited::kReply);
+  /// Can `peer` read its mail without first getting a permit? False only
+  /// under scheduled mail wake-ups (scheduler.h) while `peer` holds no
+  /// permit: its reply to this node then waits for a free permit, and a
+  /// node that waits for that reply holding its own permit (spinning on
+  /// it) only delays it. Relaxed reads: a hint, as the peer's state may
+  /// change at once.
+  bool peer_reads_mail(NodeId peer) const;
   /// Bounds how many incoming messages a blocked send() parks in the arena
   /// (default: no bound). Only for a node whose blocking sends all go to
   /// a consumer that never blocks on it (dataflow: only to the host): a

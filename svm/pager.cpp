@@ -246,8 +246,13 @@ std::uint32_t Pager::fault(std::uint32_t page) {
       // time is its virtual clock: refilling them after a thread switch
       // would be charged as work). The wait itself is not work: it is
       // dropped from the clock, which advance_to() below sets to the
-      // reply's arrival. Then block, giving the run permit away.
-      if (spins < kSpinYields && ctx_.compute_clock() == nodes::ComputeClock::kCpu) {
+      // reply's arrival. Then block, giving the run permit away. Not while
+      // the home node needs a permit to read its mail (scheduled mail
+      // wake-ups): every permit may be held by nodes spinning like this
+      // one, and each spin of 64 yields then ran to its end, a scheduler
+      // time slice per yield on a loaded machine (a 48x40 render at 4
+      // nodes took minutes).
+      if (spins < kSpinYields && ctx_.compute_clock() == nodes::ComputeClock::kCpu && ctx_.peer_reads_mail(home)) {
         ++spins;
         std::this_thread::yield();
         ctx_.reset_cpu_mark();

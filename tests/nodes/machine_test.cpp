@@ -302,3 +302,38 @@ TEST_CASE("machine: the host's nap grows while its mail stays short, and a gathe
   CHECK(next_host_nap(kHostNapMaxS, cap / 4, cap, true) == kHostNapMinS);
   CHECK(next_host_nap(kHostNapMaxS, cap, cap, true) == kHostNapMinS);
 }
+
+TEST_CASE("machine: under scheduled mail a sleeping node without a permit does not read its mail, so a pager must not spin on it") {
+  // svm's page fault spins a while for the reply, holding its permit, only
+  // where the home node reads its mail without a permit (svm/pager.cpp):
+  // with every permit held by spinning nodes, a scheduled home could never
+  // answer until each spin ran out.
+  for (const bool scheduled : {true, false}) {
+    CAPTURE(scheduled);
+    MachineParams p;
+    p.nodes = 3;
+    p.run_permits = 1;
+    p.scheduled_mail = scheduled;
+    p.timeout_s = 60;
+    Machine machine(p);
+    std::atomic<int> peer1{-1}, peer2{-1}, host{-1};
+    machine.run(
+        [&](NodeContext& ctx) {
+          if (ctx.id() != 0) {
+            ctx.receive(WaitKind::kIdle);  // sleeps, holding no permit, until node 0's message
+            return;
+          }
+          while (!ctx.try_run()) ctx.wait_for_mail(0);  // node 0 holds the one permit
+          peer1 = ctx.peer_reads_mail(1);
+          peer2 = ctx.peer_reads_mail(2);
+          host = ctx.peer_reads_mail(kHost);
+          ctx.send(1, MessageType::kTest, std::uint64_t{1});
+          ctx.send(2, MessageType::kTest, std::uint64_t{2});
+          ctx.release_run();
+        },
+        [](NodeContext&) {});
+    CHECK(host == 1);  // the host is outside the scheduler
+    CHECK(peer1 == (scheduled ? 0 : 1));
+    CHECK(peer2 == (scheduled ? 0 : 1));
+  }
+}
