@@ -124,9 +124,11 @@ std::string NodeContext::describe_wait() const {
 
 bool NodeContext::try_run() {
   Scheduler& s = *machine_->scheduler;
-  // Fast path without reading the CPU clock: no scheduling, or the permit is held.
-  if (id_ == kHost || !s.enabled() || s.granted_flag(id_).load(std::memory_order_acquire)) return true;
-  const bool ok = s.try_run(id_, now());
+  if (id_ == kHost || !s.enabled()) return true;
+  // Fast path without reading the CPU clock: the permit is held (or was
+  // granted while we waited).
+  const bool ok = s.granted_flag(id_).load(std::memory_order_acquire) || s.try_run(id_, now());
+  fresh_grant_ = ok && want_permit_;
   want_permit_ = !ok;
   return ok;
 }
@@ -136,11 +138,23 @@ bool NodeContext::try_resume() {
   if (id_ == kHost || !s.enabled() || s.granted_flag(id_).load(std::memory_order_acquire)) return true;
   const bool ok = s.try_run(id_, now(), true);
   want_permit_ = !ok;
+  fresh_grant_ = false;
   return ok;
 }
 
 bool NodeContext::yield_point() {
   if (id_ == kHost || !machine_->scheduler->enabled()) return true;
+  // A permit just granted after a refusal runs one work unit first: the
+  // node's clock was within the window at the grant, and what it has
+  // gained since is the CPU time of asking for the permit. Checked again
+  // here, that time alone took it past a queued node at the window's edge
+  // (--schedule-window 0 under the CPU clock: a permit went round the
+  // queue with no work done, every hand-over adding a microsecond to a
+  // clock, and the run never ended).
+  if (fresh_grant_) {
+    fresh_grant_ = false;
+    return true;
+  }
   const bool ok = machine_->scheduler->yield_point(id_, now());
   want_permit_ = !ok;
   return ok;

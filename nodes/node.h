@@ -208,7 +208,10 @@ class NodeContext {
   /// reply (scheduler.h: it gets the next free permit whatever its clock).
   bool try_resume();
   /// Between work units: false if the permit went to a node lagging behind
-  /// in virtual time (then wait_for_mail() and try_run() again).
+  /// in virtual time (then wait_for_mail() and try_run() again). The first
+  /// call after try_run() got the permit following a refusal passes: a
+  /// grantee runs at least one work unit (no permit goes round the queue
+  /// with no work done).
   bool yield_point();
   /// Gives up the run permit (receive() does so itself before blocking).
   void release_run();
@@ -325,6 +328,7 @@ class NodeContext {
   std::atomic<std::int64_t> wait_a_{-1}, wait_b_{-1};
   std::atomic<double> clock_seen_{0};  ///< clock_ as of the last wait, for the watchdog
   bool want_permit_ = false;           ///< the last try_run/yield_point was refused
+  bool fresh_grant_ = false;           ///< try_run got the permit after a refusal: the next yield_point passes
   double host_nap_s_ = kHostNapMinS;  ///< the host's wait between looks at its mailbox (wait_for_mail)
   bool host_gathering_ = false;       ///< set_host_gathering()
   std::atomic<std::size_t> backlog_size_{0};  ///< messages parked by a blocked send, for the watchdog
