@@ -297,7 +297,7 @@ void register_bench_nodes_commands(CLI::App& app) {
       ->check(CLI::Range(0, 1 << 20))
       ->capture_default_str();
   c->callback([no, c] {
-    check_mode_options(*c, {no->mode}, {.submaps = no->run.submaps, .network = no->run.network});
+    check_mode_options(*c, {no->mode});
     run_bench_nodes(*no);
   });
 }

@@ -702,7 +702,7 @@ void register_render_command(CLI::App& app) {
   c->callback([o, c] {
     o->pack_given = c->get_option("--pack-cells")->count() > 0;
     // No option is ignored without a word: one that this mode does not read is a usage error.
-    check_mode_options(*c, {o->mode}, {.submaps = o->submaps, .network = o->network});
+    check_mode_options(*c, {o->mode});
     run_render(*o);
   });
 }

@@ -609,7 +609,7 @@ void register_sweep_commands(CLI::App& app) {
   n->footer(std::string("Example: raynode sweep nodes teapot:8 --modes svm,dataflow --nodes 1..64 --network ipsc2\n") +
             kCommonFooter);
   n->callback([no, n] {
-    check_mode_options(*n, parse_modes(no->modes), {.submaps = no->run.submaps, .network = no->run.network});
+    check_mode_options(*n, parse_modes(no->modes));
     run_sweep_nodes(*no);
   });
 
@@ -631,7 +631,7 @@ void register_sweep_commands(CLI::App& app) {
                         "cache tetra:9 --cache 0.1..10%,max\n") +
             kCommonFooter);
   c->callback([co, c] {
-    check_mode_options(*c, {"svm"}, {.submaps = co->run.submaps, .network = co->run.network});
+    check_mode_options(*c, {"svm"});
     run_sweep_cache(*co);
   });
 
@@ -648,7 +648,7 @@ void register_sweep_commands(CLI::App& app) {
   p->footer(std::string("T_1 is the one-node run at each page size.\nExample: raynode sweep page-size rings:4 -t 1\n") +
             kCommonFooter);
   p->callback([po, p] {
-    check_mode_options(*p, {"svm"}, {.submaps = po->run.submaps, .network = po->run.network});
+    check_mode_options(*p, {"svm"});
     run_sweep_page_size(*po);
   });
 }

@@ -45,13 +45,6 @@ inline constexpr double kNoBound = std::numeric_limits<double>::infinity();
 /// finite_range for a number > 0 ("must be a finite number > 0").
 CLI::Validator finite_positive();
 
-/// What check_mode_options needs to know besides the modes: the values of
-/// the options that decide whether another is read.
-struct ModeOptionValues {
-  std::string submaps = "square";  ///< --submaps: --subsample is read by replicated and svm only when "balanced"
-  std::string network = "none";    ///< --network: --network-scale is read only by "ipsc2"
-};
-
 /// Refuses options given on `cmd`'s command line that none of `modes`
 /// ("sequential", "shared", "replicated", "svm", "dataflow") reads, so that
 /// no option is silently ignored: a node option (--node-memory, --clock,
@@ -59,10 +52,12 @@ struct ModeOptionValues {
 /// requests' options outside replicated and svm, --page-size, --cache and
 /// --directory-order outside svm, --partition and --queue-capacity outside
 /// dataflow, --subsample where neither dataflow nor --submaps balanced
-/// reads it, --network-scale without --network ipsc2. Options `cmd` does
-/// not have, or that were not given, pass. Throws UsageError naming the
-/// option, the modes that read it and the mode(s) given (exit 2).
-void check_mode_options(const CLI::App& cmd, const std::vector<std::string>& modes, const ModeOptionValues& values);
+/// reads it, --network-scale without --network ipsc2 (--submaps and
+/// --network are read from `cmd`: their values, or their defaults when not
+/// given). Options `cmd` does not have, or that were not given, pass.
+/// Throws UsageError naming the option, the modes that read it and the
+/// mode(s) given (exit 2).
+void check_mode_options(const CLI::App& cmd, const std::vector<std::string>& modes);
 
 void register_scene_commands(CLI::App& app);
 void register_validate_command(CLI::App& app);

@@ -137,10 +137,15 @@ const std::vector<ModeOptionRule>& mode_option_rules() {
 
 }  // namespace
 
-void check_mode_options(const CLI::App& cmd, const std::vector<std::string>& modes, const ModeOptionValues& values) {
+void check_mode_options(const CLI::App& cmd, const std::vector<std::string>& modes) {
   auto given = [&](const char* name) {
     const CLI::Option* opt = cmd.get_option_no_throw(name);
     return opt != nullptr && opt->count() > 0;
+  };
+  // An option's value as parsed, or its default (capture_default_str) when not given.
+  auto value = [&](const char* name, const char* absent) {
+    const CLI::Option* opt = cmd.get_option_no_throw(name);
+    return opt != nullptr ? opt->as<std::string>() : std::string(absent);
   };
   auto read_by_any = [&](const std::vector<std::string>& readers) {
     return std::any_of(modes.begin(), modes.end(), [&](const std::string& m) {
@@ -152,18 +157,20 @@ void check_mode_options(const CLI::App& cmd, const std::vector<std::string>& mod
     throw UsageError(fmt::format("{} is for --mode {} ({}), not {}; leave {} out", r.option, or_list(r.modes), r.what,
                                  given_modes(modes), r.option));
   }
-  if (given("--network-scale") && values.network != "ipsc2")
-    throw UsageError(fmt::format("--network-scale is for --network ipsc2 (this machine's seconds per ray), not "
-                                 "--network {}; leave --network-scale out",
-                                 values.network));
+  if (given("--network-scale")) {
+    const std::string network = value("--network", "none");
+    if (network != "ipsc2")
+      throw UsageError(fmt::format("--network-scale is for --network ipsc2 (this machine's seconds per ray), not "
+                                   "--network {}; leave --network-scale out",
+                                   network));
+  }
   // --subsample: dataflow's load estimate, or the one that cuts balanced submaps.
   if (given("--subsample") && !read_by_any({"dataflow"})) {
-    const bool balanced = values.submaps == "balanced";
-    if (!balanced || !read_by_any({"replicated", "svm"}))
+    const bool control = read_by_any({"replicated", "svm"});
+    if (!control || value("--submaps", "square") != "balanced")
       throw UsageError(fmt::format("--subsample is for --mode dataflow, or --mode replicated or svm with --submaps "
                                    "balanced (the host's load estimate), not {}{}; leave --subsample out",
-                                   given_modes(modes),
-                                   read_by_any({"replicated", "svm"}) ? " with --submaps square" : ""));
+                                   given_modes(modes), control ? " with --submaps square" : ""));
   }
 }
 

@@ -187,13 +187,15 @@ void tessellate_scene(Scene& scene, int resolution) {
   if (spheres == 0 && cones == 0) return;
 
   const std::size_t r = static_cast<std::size_t>(resolution);
-  const std::size_t new_patches = spheres * 12 * r * r + cones * 8 * r;  // r <= INT_MAX: no overflow below 2^64 / 12 r^2
-  if (new_patches > kMaxTessellatedTriangles)
+  // Counted in double first: with R up to INT_MAX, 12 R^2 alone passes 2^64.
+  const double wanted = double(spheres) * 12 * double(r) * double(r) + double(cones) * 8 * double(r);
+  if (wanted > double(kMaxTessellatedTriangles))
     throw std::invalid_argument(fmt::format(
-        "tessellate {}: {} spheres x {} triangles and {} cones x {} make {} triangles, more than the {} supported "
-        "(~{} GiB of primitive records); use a smaller -t or scene",
-        resolution, spheres, 12 * r * r, cones, 8 * r, new_patches, kMaxTessellatedTriangles,
+        "tessellate {}: {} spheres x {:.0f} triangles and {} cones x {} make {:.0f} triangles, more than the {} "
+        "supported (~{} GiB of primitive records); use a smaller -t or scene",
+        resolution, spheres, 12 * double(r) * double(r), cones, 8 * r, wanted, kMaxTessellatedTriangles,
         (kMaxTessellatedTriangles * 64) >> 30));
+  const std::size_t new_patches = spheres * 12 * r * r + cones * 8 * r;  // <= 2^25 here
   Scene out;
   out.view = scene.view;
   out.has_view = scene.has_view;

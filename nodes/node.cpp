@@ -135,10 +135,10 @@ bool NodeContext::try_run() {
 
 bool NodeContext::try_resume() {
   Scheduler& s = *machine_->scheduler;
+  fresh_grant_ = false;  // resumed inside a work unit: its next yield_point checks as usual
   if (id_ == kHost || !s.enabled() || s.granted_flag(id_).load(std::memory_order_acquire)) return true;
   const bool ok = s.try_run(id_, now(), true);
   want_permit_ = !ok;
-  fresh_grant_ = false;
   return ok;
 }
 

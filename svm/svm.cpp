@@ -111,8 +111,8 @@ std::uint32_t cache_frames_for(const PageLayout& layout, const SvmParams& params
         "svm mode: the database needs {} ({} pages of {} B), {} {} x {} hold {} for pages (each node keeps {} "
         "for its page table, mailbox and buffers{}); {}",
         nodes::format_bytes(layout.bytes()), layout.pages, ps, n, n == 1 ? "node" : "nodes",
-        nodes::format_bytes(budget),
-        nodes::format_bytes(hold), nodes::format_bytes(fixed), n > 1 ? ", and one cache page" : "", advice));
+        nodes::format_bytes(budget), nodes::format_bytes(hold), nodes::format_bytes(fixed),
+        n > 1 ? ", and one cache page" : "", advice));
   }
   // Frames beyond the pager's 4 GiB (with the list buffer) are never given.
   const std::size_t addressable = kPagerMaxFrameBytes / ps > home + 1 ? kPagerMaxFrameBytes / ps - home - 1 : 0;

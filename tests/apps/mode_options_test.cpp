@@ -12,21 +12,30 @@ using namespace raynode;
 
 namespace {
 
-/// A command with every mode-dependent option (as render has them), parsed
-/// from `args`; returns the message of check_mode_options, "" if it passed.
+/// The defaults of the two options whose values check_mode_options reads.
+struct Defaults {
+  std::string submaps = "square";
+  std::string network = "none";
+};
+
+/// A command with every mode-dependent option (as render has them; --submaps
+/// and --network with `values` as their defaults), parsed from `args`;
+/// returns the message of check_mode_options, "" if it passed.
 std::string check(const std::vector<std::string>& args, const std::vector<std::string>& modes,
-                  apps::ModeOptionValues values = {}) {
+                  Defaults values = {}) {
   CLI::App app;
   std::string text;
-  for (const char* name : {"--node-memory", "--network", "--network-scale", "--topology", "--schedule-window",
-                           "--mail-wakeups", "--clock", "--stall-timeout", "--timeout", "--work-item",
-                           "--work-requests", "--work-grants", "--submaps", "--page-size", "--cache",
-                           "--directory-order", "--partition", "--queue-capacity", "--subsample"})
+  for (const char* name : {"--node-memory", "--network-scale", "--topology", "--schedule-window", "--mail-wakeups",
+                           "--clock", "--stall-timeout", "--timeout", "--work-item", "--work-requests",
+                           "--work-grants", "--page-size", "--cache", "--directory-order", "--partition",
+                           "--queue-capacity", "--subsample"})
     app.add_option(name, text);
+  app.add_option("--submaps", values.submaps)->capture_default_str();
+  app.add_option("--network", values.network)->capture_default_str();
   std::vector<std::string> argv(args.rbegin(), args.rend());  // CLI11 takes them reversed
   app.parse(argv);
   try {
-    apps::check_mode_options(app, modes, values);
+    apps::check_mode_options(app, modes);
   } catch (const apps::UsageError& e) {
     return e.what();
   }

@@ -356,6 +356,18 @@ TEST_CASE("spd: tessellate_scene refuses a result beyond kMaxTessellatedTriangle
   CHECK(small.shapes.size() == shapes - 10 + 10 * 12 * 4);
 }
 
+TEST_CASE("spd: tessellate_scene counts a huge resolution without wrapping round 2^64") {
+  Scene scene = make("balls", 1);  // 10 spheres and a polygon
+  const std::vector<Shape> shapes(scene.shapes.begin(), scene.shapes.end());
+  std::size_t spheres = 10;
+  for (const Shape& s : shapes)
+    if (s.kind == ShapeKind::kSphere && spheres < 16) scene.shapes.push_back(s), ++spheres;
+  REQUIRE(scene.counts().spheres == 16);
+  // 16 x 12 x (2^30)^2 = 192 x 2^60, which is 0 modulo 2^64.
+  CHECK_THROWS_AS(tessellate_scene(scene, 1 << 30), std::invalid_argument);
+  CHECK_THROWS_AS(tessellate_scene(scene, 2147483647), std::invalid_argument);
+}
+
 TEST_CASE("spd: spd_names lists the five generators") {
   const std::vector<std::string> names = spd_names();
   CHECK(names == std::vector<std::string>{"teapot", "mount", "rings", "tetra", "balls"});
