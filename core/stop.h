@@ -8,9 +8,12 @@
 // (one relaxed atomic load, no clock read) and leave by throw_if_stopped(),
 // which throws StopError with the watchdog's message. A global on purpose:
 // it is the one piece of state every layer may read, like a signal.
+// Header-only, so that nodes/ (built alone for its ThreadSanitizer test)
+// can poll it without linking core.
 #pragma once
 
 #include <atomic>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -26,7 +29,9 @@ class StopError : public std::runtime_error {
 
 namespace detail {
 inline std::atomic<bool> g_stop_requested{false};
-}
+inline std::mutex g_stop_mutex;
+inline std::string g_stop_message;  // guarded by g_stop_mutex
+}  // namespace detail
 
 /// True once request_stop() was called. Wait-free; any thread; cheap enough
 /// for once per ray.
@@ -35,10 +40,20 @@ inline bool stop_requested() noexcept { return detail::g_stop_requested.load(std
 /// Asks every loop that polls stop_requested() to stop. `message` says why,
 /// e.g. "the run did not finish within 5 s (--timeout)"; the first caller's
 /// message is kept. Thread-safe; not async-signal-safe (it stores a string).
-void request_stop(const std::string& message);
+inline void request_stop(const std::string& message) {
+  {
+    std::lock_guard<std::mutex> lock(detail::g_stop_mutex);
+    if (detail::g_stop_message.empty()) detail::g_stop_message = message;
+  }
+  // Release: a poller that sees the flag and then locks finds the message.
+  detail::g_stop_requested.store(true, std::memory_order_release);
+}
 
-/// The first request_stop() message, or "" when none was made. Thread-safe.
-std::string stop_message();
+/// The first request_stop() message ("stopped" when none was given). Thread-safe.
+inline std::string stop_message() {
+  std::lock_guard<std::mutex> lock(detail::g_stop_mutex);
+  return detail::g_stop_message.empty() ? std::string("stopped") : detail::g_stop_message;
+}
 
 /// Throws StopError("<message>: stopped while <doing>") when a stop was
 /// requested; otherwise returns at the cost of stop_requested(). `doing`
@@ -50,6 +65,10 @@ inline void throw_if_stopped(std::string_view doing) {
 }
 
 /// Clears the request (tests only: a process that was asked to stop exits).
-void clear_stop_request();
+inline void clear_stop_request() {
+  std::lock_guard<std::mutex> lock(detail::g_stop_mutex);
+  detail::g_stop_message.clear();
+  detail::g_stop_requested.store(false, std::memory_order_release);
+}
 
 }  // namespace raynode::core
