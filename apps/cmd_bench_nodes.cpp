@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "apps/commands.h"
+#include "apps/output_files.h"
 #include "apps/node_runs.h"
 #include "core/cell_blocks.h"
 #include "core/database.h"
@@ -117,6 +118,10 @@ void run_bench_nodes(const NodesBenchOptions& o) {
   NodeRunSpec spec = make_node_run_spec(o.run);
   spec.cache_pages = o.cache_pages;
   spec.pack_min = o.pack_min;
+  // The --json file is checked before the runs ("-" is stdout).
+  OutputFiles files(core::is_scene_file(o.source.spec) ? std::vector<std::string>{o.source.spec}
+                                                       : std::vector<std::string>{});
+  const std::size_t json_out = o.json_path.empty() ? 0 : files.add(o.json_path, "--json file", true);
   const core::Scene scene = core::load_scene(o.source);
   const core::Database db = core::make_database(scene);
   core::GridParams gp;
@@ -238,8 +243,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
                *one_node_ratio, std::max(1, o.run.repeat), pair_ratios.size(), one_node_median.value_or(0));
   }
   if (!o.json_path.empty()) {
-    std::ofstream f(o.json_path);
-    f << nlohmann::json{{"scene", o.source.spec},       {"mode", o.mode},   {"network", o.run.network},
+    files.text(json_out, nlohmann::json{{"scene", o.source.spec},       {"mode", o.mode},   {"network", o.run.network},
                         {"clock", o.run.clock},         {"width", o.run.width}, {"height", o.run.height},
                         {"submaps", o.run.submaps},     {"work_grants", o.run.work_grants},
                         {"work_requests", o.run.work_requests}, {"pack_cells", o.pack_min},
@@ -249,9 +253,9 @@ void run_bench_nodes(const NodesBenchOptions& o) {
                          one_node_median ? nlohmann::json(*one_node_median) : nlohmann::json()},
                         {"one_node_pair_ratios", pair_ratios},
                         {"rows", rows}}
-             .dump(2)
-      << "\n";
-    if (!f) throw std::runtime_error("cannot write " + o.json_path);
+                                 .dump(2) +
+                             "\n");
+    files.commit();
   }
 }
 

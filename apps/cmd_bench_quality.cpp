@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "apps/commands.h"
+#include "apps/output_files.h"
 #include "apps/pareto.h"
 #include "apps/plot.h"
 #include "core/database.h"
@@ -408,20 +409,29 @@ fig.tight_layout()
 fig.savefig(png_path, dpi=120)
 )PY";
 
-void write_csv(const std::string& path, const QualityOptions& o, int w, int h, const std::vector<Measured>& points,
-               double default_time) {
-  std::ofstream f(path);
-  if (!f) throw std::runtime_error("cannot write " + path);
-  f << "index,scene,width,height,max_depth,min_weight,tessellate,spp,accel,mode,varied,primitives,build_s,time_s,"
-       "renders,time_over_default,rays,rmse,psnr_db,on_front,is_default\n";
-  for (std::size_t i = 0; i < points.size(); ++i) {
+/// The CSV of the points measured so far (renders > 0), the front among them.
+std::string csv_text(const QualityOptions& o, int w, int h, const std::vector<Measured>& points) {
+  std::vector<std::size_t> measured;
+  std::vector<CostPoint> costs;
+  for (std::size_t i = 0; i < points.size(); ++i)
+    if (points[i].renders > 0) {
+      measured.push_back(i);
+      costs.push_back({points[i].time_s, round_significant(points[i].rmse, kFrontDigits)});
+    }
+  std::vector<bool> on_front(points.size(), false);
+  for (std::size_t k : pareto_front(costs)) on_front[measured[k]] = true;
+  const double default_time = points.empty() ? 0.0 : points.front().time_s;  // make_design puts it first
+  std::string out =
+      "index,scene,width,height,max_depth,min_weight,tessellate,spp,accel,mode,varied,primitives,build_s,time_s,"
+      "renders,time_over_default,rays,rmse,psnr_db,on_front,is_default\n";
+  for (std::size_t i : measured) {
     const Measured& m = points[i];
-    f << fmt::format("{},\"{}\",{},{},{},{:g},{},{},{},{},{},{},{:.6g},{:.6g},{},{:.4g},{},{:.6g},{},{},{}\n", i,
-                     o.scene, w, h, m.s.max_depth, m.s.min_weight, m.s.tessellate, m.s.spp, m.s.accel, o.mode,
-                     m.varied, m.primitives, m.build_s, m.time_s, m.renders, m.time_s / default_time, m.rays, m.rmse,
-                     fmt_psnr(m.psnr), int(m.on_front), int(m.is_default));
+    out += fmt::format("{},\"{}\",{},{},{},{:g},{},{},{},{},{},{},{:.6g},{:.6g},{},{:.4g},{},{:.6g},{},{},{}\n", i,
+                       o.scene, w, h, m.s.max_depth, m.s.min_weight, m.s.tessellate, m.s.spp, m.s.accel, o.mode,
+                       m.varied, m.primitives, m.build_s, m.time_s, m.renders, m.time_s / default_time, m.rays,
+                       m.rmse, fmt_psnr(m.psnr), int(on_front[i]), int(m.is_default));
   }
-  if (!f) throw std::runtime_error("error writing " + path);
+  return out;
 }
 
 void run_quality(QualityOptions o) {
@@ -433,6 +443,11 @@ void run_quality(QualityOptions o) {
   if (o.check_depth == o.reference_depth)
     throw UsageError(fmt::format("--check-depth must differ from --reference-depth ({})", o.reference_depth));
   const std::string prefix = o.output.empty() ? default_prefix(o.scene) : o.output;
+  // The outputs are checked before the first render; the CSV then holds
+  // every point measured so far, so an interrupted run keeps them.
+  OutputFiles files(core::is_scene_file(o.scene) ? std::vector<std::string>{o.scene} : std::vector<std::string>{});
+  const std::size_t csv_out = files.add(prefix + ".csv", "CSV", true);
+  files.add(prefix + ".png", "plot", false);  // drawn by the plot script; checked here
   const bool show = !o.quiet;
   const int max_spp = *std::max_element(knobs.spp.begin(), knobs.spp.end());
   const int max_depth = *std::max_element(knobs.max_depth.begin(), knobs.max_depth.end());
@@ -551,6 +566,7 @@ void run_quality(QualityOptions o) {
     if (show)
       fmt::print(stderr, "bench quality: point {}/{} ({}): {:.4f} s, RMSE {:.3g}; {} renders planned; ETA {}\n",
                  i + 1, design.size(), describe(s), m.first_s, m.rmse, planned[i], eta());
+    files.update(csv_out, csv_text(o, o.width, o.height, points));
   }
   const int rounds = *std::max_element(planned.begin(), planned.end());
   for (int round = 2; round <= rounds; ++round) {
@@ -562,6 +578,7 @@ void run_quality(QualityOptions o) {
       }
     if (show && (round <= 3 || round % 10 == 0 || round == rounds))
       fmt::print(stderr, "bench quality: repeat round {}/{} ({} points); ETA {}\n", round, rounds, count, eta());
+    files.update(csv_out, csv_text(o, o.width, o.height, points));
   }
 
   // The front compares errors to kFrontDigits significant digits (as the
@@ -646,7 +663,8 @@ void run_quality(QualityOptions o) {
 
   // CSV and plot.
   const std::string csv_path = prefix + ".csv", png_path = prefix + ".png";
-  write_csv(csv_path, o, o.width, o.height, points, def.time_s);
+  files.text(csv_out, csv_text(o, o.width, o.height, points));
+  files.commit();
   fmt::print("CSV: {}\n", csv_path);
   const std::string title =
       fmt::format("raynode bench quality {}: {}x{}, {} ({}), best of >= {} renders and >= {:g} s per point", o.scene,

@@ -16,6 +16,7 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -25,8 +26,10 @@
 
 #include "apps/commands.h"
 #include "apps/node_runs.h"
+#include "apps/output_files.h"
 #include "apps/progress.h"
 #include "apps/run_summary.h"
+#include "apps/watchdog.h"
 #include "core/database.h"
 #include "core/direct_view.h"
 #include "core/embree_scene.h"
@@ -135,7 +138,7 @@ nodes::MachineParams machine_params(const RenderOptions& o) {
   }
   m.network = nodes::make_network(o.network, o.network_scale,
                                   m.clock == nodes::ComputeClock::kModel ? &m.cost_model : nullptr);
-  m.timeout_s = o.timeout_s;
+  m.timeout_s = 0;  // --timeout is the process's watchdog (apps/watchdog.h), which the machine polls
   m.stall_timeout_s = o.stall_timeout_s;
   m.schedule_window_s = o.schedule_window_us * 1e-6;
   if (o.mail_wakeups != "auto") m.scheduled_mail = o.mail_wakeups == "scheduled";
@@ -181,78 +184,6 @@ std::string aov_path(const std::string& output, const std::string& aov) {
   p.replace_extension();
   return p.string() + "." + aov + ".exr";
 }
-
-/// Stops before any work when `path` cannot be written: its directory is
-/// missing, or a directory stands at the path. `what` names the file
-/// ("image", "--stats file", "AOV"). Throws std::runtime_error (exit 1).
-void check_writable(const std::string& path, const char* what) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  const fs::path dir = fs::path(path).parent_path();
-  if (!dir.empty() && !fs::is_directory(dir, ec))
-    throw std::runtime_error(
-        fmt::format("cannot write {} '{}': directory '{}' does not exist", what, path, dir.string()));
-  if (fs::is_directory(path, ec))
-    throw std::runtime_error(fmt::format("cannot write {} '{}': a directory is in the way", what, path));
-}
-
-/// The files of one render (image, AOVs, maps, --stats), written under
-/// temporary names beside their final paths and renamed into place only when
-/// every one of them was written: a failed run leaves none of them behind,
-/// nor a temporary. Owner thread only.
-class OutputFiles {
- public:
-  OutputFiles() = default;
-  OutputFiles(const OutputFiles&) = delete;
-  OutputFiles& operator=(const OutputFiles&) = delete;
-  ~OutputFiles() {
-    std::error_code ec;
-    for (const File& f : pending_) std::filesystem::remove(f.tmp, ec);
-  }
-
-  /// Writes `image` (imageio::write_image: format by the extension of `path`).
-  void image(const std::string& path, const core::Image& image) { imageio::write_image(add(path), image); }
-
-  /// Writes `text` as is. Throws std::runtime_error naming `path`.
-  void text(const std::string& path, const std::string& text) {
-    std::ofstream f(add(path), std::ios::binary);
-    if (!f) throw std::runtime_error(fmt::format("cannot write '{}': {}", path, std::strerror(errno)));
-    f << text;
-    f.close();
-    if (!f) throw std::runtime_error(fmt::format("error writing '{}'", path));
-  }
-
-  /// Renames every file into place. On a failure, removes the ones already
-  /// renamed and throws std::runtime_error naming the path.
-  void commit() {
-    std::vector<std::string> done;
-    for (const File& f : pending_) {
-      std::error_code ec;
-      std::filesystem::rename(f.tmp, f.path, ec);
-      if (ec) {
-        std::error_code ignored;
-        for (const std::string& d : done) std::filesystem::remove(d, ignored);
-        throw std::runtime_error(fmt::format("cannot write '{}': {}", f.path, ec.message()));
-      }
-      done.push_back(f.path);
-    }
-    pending_.clear();
-  }
-
- private:
-  struct File {
-    std::string path, tmp;
-  };
-  /// out/o.png -> out/.o.part<pid>.png (same directory and extension).
-  const std::string& add(const std::string& path) {
-    const std::filesystem::path p(path);
-    const std::filesystem::path tmp =
-        p.parent_path() / ("." + p.stem().string() + ".part" + std::to_string(::getpid()) + p.extension().string());
-    pending_.push_back({path, tmp.string()});
-    return pending_.back().tmp;
-  }
-  std::vector<File> pending_;
-};
 
 /// The host's acceleration structure: exactly one of the two is built.
 struct Accelerator {
@@ -365,7 +296,6 @@ core::RenderResult render_frame(const RenderOptions& o, const core::Database& db
       throw UsageError(fmt::format("--nodes {} needs a node-emulator mode; --mode {} runs in this process",
                                    o.nodes, o.mode));
     params.mode = core::parse_render_mode(o.mode);
-    params.timeout_s = o.timeout_s;  // the node modes' is their machine's watchdog
     if (accel.embree) return core::render_image(core::EmbreeView(db, *accel.embree), db, params);
     return core::render_image(core::DirectView(db, *accel.grid, accel.blocks ? &*accel.blocks : nullptr), db,
                               params);
@@ -394,12 +324,19 @@ void run_render(const RenderOptions& o) {
     throw UsageError("output '" + o.output + "' has no extension to choose the image format");
   if (!imageio::can_write_format(o.output))
     throw UsageError("no image writer for the extension of '" + o.output + "' (try .png, .exr, .tif, .ppm)");
-  check_writable(o.output, "image");
-  if (!o.stats_path.empty()) check_writable(o.stats_path, "--stats file");
+  // Every output is declared, checked and given its temporary before any
+  // work; the AOVs' files are those the options can produce.
+  OutputFiles files(core::is_scene_file(o.source.spec) ? std::vector<std::string>{o.source.spec}
+                                                       : std::vector<std::string>{});
+  const std::size_t image_out = files.add(o.output, "image", false);
+  const std::size_t stats_out = o.stats_path.empty() ? 0 : files.add(o.stats_path, "--stats file", true);
+  std::map<std::string, std::size_t> aov_out, map_out;  // AOV name -> output
   for (const std::string& a : o.aovs) {
-    check_writable(aov_path(o.output, a), "AOV");
+    if (aov_out.count(a)) continue;
+    aov_out[a] = files.add(aov_path(o.output, a), "AOV", false);
     if (a == "node" || a == "pages")  // NAME.node.png, NAME.pages.png beside the EXR
-      check_writable(std::filesystem::path(aov_path(o.output, a)).replace_extension(".png").string(), "AOV map");
+      map_out[a] =
+          files.add(std::filesystem::path(aov_path(o.output, a)).replace_extension(".png").string(), "AOV map", false);
   }
 
   const core::Scene scene = core::load_scene(o.source);
@@ -434,14 +371,14 @@ void run_render(const RenderOptions& o) {
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   progress.finish();
 
-  OutputFiles files;  // renamed into place together at the end
-  files.image(o.output, result.color);
   std::vector<std::pair<std::string, std::string>> aov_files;  // (aov, path)
   auto write_aov = [&](const char* name, const core::Image& image) {
     if (image.empty()) return;
-    aov_files.emplace_back(name, aov_path(o.output, name));
-    files.image(aov_files.back().second, image);
+    const std::size_t id = aov_out.at(name);
+    aov_files.emplace_back(name, files.path(id));
+    files.image(id, image);
   };
+  files.image(image_out, result.color);
   write_aov("depth", result.depth);
   write_aov("normal", result.normal);
   write_aov("primitive", result.primitive);
@@ -451,10 +388,9 @@ void run_render(const RenderOptions& o) {
   // Pictures of the node modes' maps beside their data: NAME.node.png, NAME.pages.png.
   auto write_map = [&](const char* name, const core::Image& picture) {
     if (picture.empty()) return;
-    std::filesystem::path p(aov_path(o.output, name));
-    p.replace_extension(".png");
-    aov_files.emplace_back(std::string(name) + "_map", p.string());
-    files.image(p.string(), picture);
+    const std::size_t id = map_out.at(name);
+    aov_files.emplace_back(std::string(name) + "_map", files.path(id));
+    files.image(id, picture);
   };
   if (!extras.node.empty()) write_map("node", imageio::label_map(extras.node));
   if (!extras.pages.empty()) write_map("pages", imageio::heat_map(extras.pages));
@@ -534,17 +470,19 @@ void run_render(const RenderOptions& o) {
         j["per_node"][i]["svm"] = extras.svm["per_node"][i];
     }
     if (!extras.dataflow.is_null()) j["dataflow"] = extras.dataflow;
-    files.text(o.stats_path, j.dump(2) + "\n");
+    files.text(stats_out, j.dump(2) + "\n");
   }
+  // The summary goes to stderr when stdout carries an output (--stats -).
+  std::FILE* report = files.uses_stdout() ? stderr : stdout;
   files.commit();
   if (!o.quiet) {
-    fmt::print("{}: {}x{} spp {}x{} mode {} accel {} in {:.3f} s wall ({:.3f} s cpu)\n", o.output,
+    fmt::print(report, "{}: {}x{} spp {}x{} mode {} accel {} in {:.3f} s wall ({:.3f} s cpu)\n", o.output,
                result.color.width, result.color.height, params.spp, params.spp, o.mode, o.accel, wall_s, cpu_s);
-    fmt::print("rays: {} primary, {} shadow, {} reflected, {} refracted ({} total)\n", s.rays.primary,
+    fmt::print(report, "rays: {} primary, {} shadow, {} reflected, {} refracted ({} total)\n", s.rays.primary,
                s.rays.shadow, s.rays.reflected, s.rays.refracted, s.rays.total());
     for (const std::string& line : node_run_summary(extras.nodes, extras.svm, extras.dataflow))
-      fmt::print("{}\n", line);
-    for (const auto& [name, path] : aov_files) fmt::print("{}: {}\n", name, path);
+      fmt::print(report, "{}\n", line);
+    for (const auto& [name, path] : aov_files) fmt::print(report, "{}: {}\n", name, path);
   }
 }
 
@@ -703,6 +641,7 @@ void register_render_command(CLI::App& app) {
     o->pack_given = c->get_option("--pack-cells")->count() > 0;
     // No option is ignored without a word: one that this mode does not read is a usage error.
     check_mode_options(*c, {o->mode});
+    start_timeout_watchdog(o->timeout_s);  // from process start, over every step
     run_render(*o);
   });
 }

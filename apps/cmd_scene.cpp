@@ -4,6 +4,8 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/commands.h"
+#include "apps/output_files.h"
+#include "apps/watchdog.h"
 #include "core/database.h"
 #include "core/grid.h"
 #include "core/nff.h"
@@ -21,6 +23,7 @@ struct InfoOptions {
 struct WriteOptions {
   core::SceneSource source;
   std::string output;
+  double timeout_s = 0;
 };
 
 void run_info(const InfoOptions& o) {
@@ -86,9 +89,19 @@ void register_scene_commands(CLI::App& app) {
   CLI::App* cw = scene->add_subcommand("write", "Write a scene as NFF (.nff, or .nff.gz for gzip)");
   add_scene_options(*cw, wr->source);
   cw->add_option("-o,--output", wr->output, "Output NFF file")->required();
+  cw->add_option("--timeout", wr->timeout_s, "Stop with an error (exit 1, no file written) after this many wall "
+                                            "seconds from start (0 = never)")
+      ->check(finite_range(0, kNoBound));
   cw->callback([wr] {
+    start_timeout_watchdog(wr->timeout_s);
+    // The output is checked before the scene is read; "-" is stdout (plain NFF).
+    OutputFiles files(core::is_scene_file(wr->source.spec) ? std::vector<std::string>{wr->source.spec}
+                                                          : std::vector<std::string>{});
+    const std::size_t out = files.add(wr->output, "NFF file", true);
     const core::Scene s = core::load_scene(wr->source);
-    core::write_nff_file(wr->output, s);
+    const bool gzip = wr->output.size() >= 3 && wr->output.compare(wr->output.size() - 3, 3, ".gz") == 0;
+    files.file(out, [&](const std::string& file_path) { core::write_nff_into(file_path, s, gzip, wr->output); });
+    files.commit();
   });
 }
 

@@ -40,6 +40,7 @@
 
 #include "apps/commands.h"
 #include "apps/node_runs.h"
+#include "apps/output_files.h"
 #include "apps/plot.h"
 #include "apps/sweep_plots.h"
 #include "apps/sweep_points.h"
@@ -79,27 +80,27 @@ class Table {
   }
   std::size_t size() const { return rows_.size(); }
 
-  /// RFC 4180: cells with a comma, quote or newline are quoted.
-  void write_csv(const std::string& path) const {
-    std::ofstream f(path, std::ios::binary | std::ios::trunc);
-    if (!f) throw std::runtime_error("cannot write " + path);
-    auto line = [&f](const std::vector<std::string>& cells) {
+  /// The table as CSV (RFC 4180: cells with a comma, quote or newline are
+  /// quoted).
+  std::string csv_text() const {
+    std::string out;
+    auto line = [&out](const std::vector<std::string>& cells) {
       for (std::size_t i = 0; i < cells.size(); ++i) {
-        if (i) f << ',';
+        if (i) out += ',';
         const std::string& c = cells[i];
         if (c.find_first_of(",\"\n\r") == std::string::npos) {
-          f << c;
+          out += c;
           continue;
         }
-        f << '"';
-        for (char ch : c) f << (ch == '"' ? "\"\"" : std::string(1, ch));
-        f << '"';
+        out += '"';
+        for (char ch : c) out += ch == '"' ? std::string("\"\"") : std::string(1, ch);
+        out += '"';
       }
-      f << '\n';
+      out += '\n';
     };
     line(columns_);
     for (const auto& r : rows_) line(r);
-    if (!f) throw std::runtime_error("error writing " + path);
+    return out;
   }
 
   /// `columns` as a right-aligned text table ("-" for an empty cell);
@@ -264,6 +265,9 @@ struct SweepFrame {
   NodeRunSpec spec;
   std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
   std::size_t total = 0, done = 0;  ///< runs planned and finished
+  std::unique_ptr<OutputFiles> outputs;  ///< PREFIX.csv (checked before the runs)
+  std::size_t csv = 0;                   ///< its index in `outputs`
+  const Table* table = nullptr;          ///< the sweep's table, saved to PREFIX.csv after every run
 
   /// One stderr line after a run: which of how many, the result, elapsed, ETA.
   void progress(const std::string& what, const NodeRun& r, double t1_s, std::uint32_t nodes) {
@@ -283,6 +287,8 @@ struct SweepFrame {
     fmt::print(stderr, "sweep {}: [{}/{}] {}: {}; elapsed {}, ETA {}\n", kind, done, total, what, result,
                format_duration(elapsed), done < total ? format_duration(eta) : "done");
     std::fflush(stderr);
+    // Every finished run is in the CSV at once: an interrupted sweep keeps them.
+    if (table && outputs) outputs->update(csv, table->csv_text());
   }
 };
 
@@ -293,9 +299,10 @@ SweepFrame make_frame(const std::string& kind, SweepOptions& o) {
   f.scene = scene_label(o.source);
   f.prefix = o.output.empty() ? "sweep-" + kind + "-" + scene_slug(o.source) : o.output;
   // Fail before the runs, not after them, when the CSV cannot be written there.
-  const std::filesystem::path dir = std::filesystem::path(f.prefix).parent_path();
-  if (!dir.empty() && !std::filesystem::is_directory(dir))
-    throw std::runtime_error("cannot write " + f.prefix + ".csv: no directory '" + dir.string() + "'");
+  f.outputs = std::make_unique<OutputFiles>(core::is_scene_file(o.source.spec) ? std::vector<std::string>{o.source.spec}
+                                                                              : std::vector<std::string>{});
+  f.csv = f.outputs->add(f.prefix + ".csv", "CSV", true);
+  f.outputs->add(f.prefix + ".png", "plot", false);  // drawn by the plot script; checked here
   f.spec = make_node_run_spec(o.run);  // before the scene: bad options fail fast
   const core::Scene scene = core::load_scene(o.source);
   f.db = core::make_database(scene);
@@ -376,7 +383,8 @@ NodeRun run_t1(SweepFrame& f, const std::string& mode, NodeRunSpec spec, std::st
 /// Writes the CSV, runs the plot script, prints where things went.
 void finish(const SweepFrame& f, const Table& t, const std::string& title) {
   const std::string csv = f.prefix + ".csv", png = f.prefix + ".png", script = f.prefix + ".plot.py";
-  t.write_csv(csv);
+  f.outputs->text(f.csv, t.csv_text());
+  f.outputs->commit();
   const PlotOutcome plot = run_plot_script(sweep_plot_script(), script, {csv, png, f.kind, title});
   fmt::print("\nsweep {} took {}; wrote {}", f.kind, format_duration(seconds_since(f.start)), csv);
   if (plot.ran) {
@@ -439,6 +447,7 @@ void run_sweep_nodes(NodesSweepOptions& o) {
   SweepFrame f = make_frame("nodes", o);
   f.total = modes.size() * counts.size();
   Table t(concat(concat({"scene", "mode", "nodes"}, run_columns()), concat({"page_size"}, setting_columns())));
+  f.table = &t;  // saved to PREFIX.csv after every run
   std::string first_skip;
   for (const std::string& mode : modes) {
     double t1 = 0;
@@ -492,6 +501,7 @@ void run_sweep_cache(CacheSweepOptions& o) {
                          "pages_total"},
                         run_columns()),
                  setting_columns()));
+  f.table = &t;  // saved to PREFIX.csv after every run
   std::string note;
   NodeRunSpec t1_spec = f.spec;  // no cache limit: all pages are home on one node
   const NodeRun t1_run = run_t1(f, "svm", t1_spec, note);
@@ -547,6 +557,7 @@ void run_sweep_page_size(PageSizeSweepOptions& o) {
                          "pages_total"},
                         run_columns()),
                  setting_columns()));
+  f.table = &t;  // saved to PREFIX.csv after every run
   std::string first_skip;
   for (std::uint32_t ps : sizes) {
     NodeRunSpec spec = f.spec;

@@ -22,6 +22,14 @@ class UsageError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// The user interrupted a child process (Ctrl-C while a plot script ran);
+/// main() prints what() and exits with status 130, as the shell does for
+/// SIGINT. What was finished before is kept.
+class Interrupted : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 /// Adds the SCENE positional and --tessellate to a subcommand.
 void add_scene_options(CLI::App& cmd, core::SceneSource& source);
 

@@ -8,10 +8,14 @@
 #include <new>
 
 #include "apps/commands.h"
+#include "apps/output_files.h"
+#include "apps/watchdog.h"
 #include "core/nff.h"
 
 int main(int argc, char** argv) {
   using namespace raynode;
+  apps::mark_process_start();  // --timeout counts from here
+  apps::install_cleanup_handlers();
   CLI::App app{"raynode: the parallel ray tracers of Badouel, Bouatouch and Priol (IEEE CG&A 1994) on an "
                "emulated distributed-memory machine"};
   app.require_subcommand(1);
@@ -39,6 +43,9 @@ int main(int argc, char** argv) {
   } catch (const core::ParseError& e) {
     fmt::print(stderr, "{}\n", e.what());
     return 1;
+  } catch (const apps::Interrupted& e) {
+    fmt::print(stderr, "raynode: {}\n", e.what());
+    return 130;
   } catch (const apps::UsageError& e) {
     fmt::print(stderr, "raynode: error: {}\n", e.what());
     return 2;

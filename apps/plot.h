@@ -21,9 +21,10 @@ struct PlotOutcome {
 
 /// Writes `script` (Python source) to `script_path`, then runs it with the
 /// first Python 3 that can import matplotlib (/usr/bin/python3, then
-/// python3 on PATH) and `args` (each shell-quoted). Never throws for a
-/// missing Python or matplotlib; throws std::runtime_error if the script
-/// file cannot be written.
+/// python3 on PATH; only $RAYNODE_PYTHON when it is set) and `args` (each
+/// shell-quoted). Never throws for a missing Python or matplotlib; throws
+/// std::runtime_error if the script file cannot be written, and
+/// Interrupted (exit 130) when Ctrl-C ended the script.
 PlotOutcome run_plot_script(std::string_view script, const std::string& script_path,
                             const std::vector<std::string>& args);
 

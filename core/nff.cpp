@@ -676,14 +676,12 @@ void write_nff(std::ostream& out, const Scene& scene) {
       scene);
 }
 
-void write_nff_file(const std::string& path, const Scene& scene) {
-  const std::string tmp = path + ".tmp";
+void write_nff_into(const std::string& file_path, const Scene& scene, bool gzip, const std::string& name) {
+  const std::string& tmp = file_path;
   auto fail = [&](const std::string& why) {
-    std::error_code ignored;
-    std::filesystem::remove(tmp, ignored);
-    throw std::runtime_error(fmt::format("cannot write '{}': {}", path, why));
+    throw std::runtime_error(fmt::format("cannot write '{}': {}", name, why));
   };
-  if (ends_with(path, ".gz")) {
+  if (gzip) {
     gzFile gz = gzopen(tmp.c_str(), "wb");
     if (!gz) fail(errno ? errno_text(errno) : "gzopen failed");
     std::string error;
@@ -724,9 +722,24 @@ void write_nff_file(const std::string& path, const Scene& scene) {
     if (std::fclose(f) != 0 && error.empty()) error = errno_text(errno);
     if (!error.empty()) fail(error);
   }
+}
+
+void write_nff_file(const std::string& path, const Scene& scene) {
+  const std::string tmp = path + ".tmp";
+  try {
+    write_nff_into(tmp, scene, ends_with(path, ".gz"), path);
+  } catch (...) {
+    std::error_code ignored;
+    std::filesystem::remove(tmp, ignored);
+    throw;
+  }
   std::error_code ec;
   std::filesystem::rename(tmp, path, ec);
-  if (ec) fail(ec.message());
+  if (ec) {
+    std::error_code ignored;
+    std::filesystem::remove(tmp, ignored);
+    throw std::runtime_error(fmt::format("cannot write '{}': {}", path, ec.message()));
+  }
 }
 
 }  // namespace raynode::core

@@ -57,4 +57,9 @@ void write_nff(std::ostream& out, const Scene& scene);
 /// std::runtime_error on I/O failure.
 void write_nff_file(const std::string& path, const Scene& scene);
 
+/// Writes straight into `file_path` (created or truncated; no temporary: the
+/// caller owns the file, e.g. a temporary of apps/output_files.h), gzip when
+/// `gzip`. Throws std::runtime_error naming `name` (the user's path).
+void write_nff_into(const std::string& file_path, const Scene& scene, bool gzip, const std::string& name);
+
 }  // namespace raynode::core

@@ -33,6 +33,7 @@
 #include "core/grid.h"
 #include "core/image.h"
 #include "core/shade.h"
+#include "core/stop.h"
 #include "core/traverse.h"
 
 namespace raynode::core {
@@ -194,23 +195,35 @@ RenderResult render_image(const View& view, const Database& db, const RenderPara
   if (params.primitive_aov) result.primitive = Image(w, h, 1);
   std::atomic<std::uint64_t>* progress = params.progress;
   // --timeout: the clock is read once per row or tile (~20 ns against a row's
-  // tens of microseconds at least).
+  // tens of microseconds at least), and a process-wide stop request
+  // (core/stop.h: the CLI's watchdog, counted from process start) is polled
+  // there too; trace_ray polls it for every ray.
   using Clock = std::chrono::steady_clock;
   const Clock::time_point start = Clock::now();
   std::atomic<std::uint64_t> pixels_done{0};
+  const std::uint64_t all_pixels = std::uint64_t(w) * std::uint64_t(h);
   auto check_time = [&](std::uint64_t pixels) {
-    if (params.timeout_s <= 0) return;
     const std::uint64_t done = pixels_done.fetch_add(pixels, std::memory_order_relaxed) + pixels;
-    if (std::chrono::duration<double>(Clock::now() - start).count() >= params.timeout_s)
+    if (params.timeout_s > 0 && std::chrono::duration<double>(Clock::now() - start).count() >= params.timeout_s)
       throw RenderTimeout(fmt::format("the render did not finish within {} s (--timeout): {} of {} pixels done",
-                                      params.timeout_s, done, std::uint64_t(w) * std::uint64_t(h)));
+                                      params.timeout_s, done, all_pixels));
+  };
+  // A stop request seen by trace_ray or between rows says how far the render got.
+  auto stopped = [&] {
+    return StopError(fmt::format("{}: stopped while rendering ({} of {} pixels done)", stop_message(),
+                                 pixels_done.load(std::memory_order_relaxed), all_pixels));
   };
   if (params.mode == RenderMode::kSequential) {
     ShadingScratch scratch;
-    for (int y = 0; y < h; ++y) {
-      render_rect(v, ctx, camera, params, 0, y, w, y + 1, result, scratch);
-      if (progress) progress->fetch_add(std::uint64_t(w), std::memory_order_relaxed);
-      check_time(std::uint64_t(w));
+    try {
+      for (int y = 0; y < h; ++y) {
+        render_rect(v, ctx, camera, params, 0, y, w, y + 1, result, scratch);
+        if (progress) progress->fetch_add(std::uint64_t(w), std::memory_order_relaxed);
+        check_time(std::uint64_t(w));
+        throw_if_stopped("rendering");
+      }
+    } catch (const StopError&) {
+      throw stopped();
     }
     result.stats = scratch.stats;
     result.stats.traversal = scratch.traversal.stats;
@@ -219,16 +232,22 @@ RenderResult render_image(const View& view, const Database& db, const RenderPara
   const int ts = params.tile_size;
   const int tx = (w + ts - 1) / ts, ty = (h + ts - 1) / ts;
   tbb::enumerable_thread_specific<ShadingScratch> scratches;
-  tbb::parallel_for(tbb::blocked_range<int>(0, tx * ty, 1), [&](const tbb::blocked_range<int>& range) {
-    ShadingScratch& scratch = scratches.local();
-    for (int t = range.begin(); t != range.end(); ++t) {
-      const int x0 = (t % tx) * ts, y0 = (t / tx) * ts;
-      const int x1 = std::min(x0 + ts, w), y1 = std::min(y0 + ts, h);
-      render_rect(v, ctx, camera, params, x0, y0, x1, y1, result, scratch);
-      if (progress) progress->fetch_add(std::uint64_t(x1 - x0) * std::uint64_t(y1 - y0), std::memory_order_relaxed);
-      check_time(std::uint64_t(x1 - x0) * std::uint64_t(y1 - y0));
-    }
-  });
+  try {
+    tbb::parallel_for(tbb::blocked_range<int>(0, tx * ty, 1), [&](const tbb::blocked_range<int>& range) {
+      ShadingScratch& scratch = scratches.local();
+      for (int t = range.begin(); t != range.end(); ++t) {
+        const int x0 = (t % tx) * ts, y0 = (t / tx) * ts;
+        const int x1 = std::min(x0 + ts, w), y1 = std::min(y0 + ts, h);
+        render_rect(v, ctx, camera, params, x0, y0, x1, y1, result, scratch);
+        if (progress)
+          progress->fetch_add(std::uint64_t(x1 - x0) * std::uint64_t(y1 - y0), std::memory_order_relaxed);
+        check_time(std::uint64_t(x1 - x0) * std::uint64_t(y1 - y0));
+        throw_if_stopped("rendering");
+      }
+    });
+  } catch (const StopError&) {
+    throw stopped();
+  }
   for (const ShadingScratch& s : scratches) {
     RenderStats part = s.stats;
     part.traversal = s.traversal.stats;

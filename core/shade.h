@@ -44,6 +44,7 @@
 #include "core/database.h"
 #include "core/intersect.h"
 #include "core/math.h"
+#include "core/stop.h"
 #include "core/traverse.h"
 
 namespace raynode::core {
@@ -213,6 +214,8 @@ struct ShadingScratch {
 template <class View>
 Vec3 trace_ray(const View& view, const ShadingContext& ctx, const Ray& ray, int depth, float weight,
                ShadingScratch& scratch, FirstHit* first_hit = nullptr) {
+  // --timeout reaches inside a pixel, however deep its ray tree (core/stop.h).
+  throw_if_stopped("tracing rays");
   RenderStats& st = scratch.stats;
   Hit hit;
   if (!intersect_closest(view, ray, hit, scratch.traversal)) {

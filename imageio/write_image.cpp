@@ -72,18 +72,13 @@ bool is_float_format(const std::string& path) {
 
 bool can_write_format(const std::string& path) { return oiio().can_write(path.c_str()) != 0; }
 
-void write_image(const std::string& path, const core::Image& image) {
-  namespace fs = std::filesystem;
+void write_image_as(const std::string& format_path, const std::string& file_path, const core::Image& image) {
+  const std::string& path = format_path;
   if (image.width < 1 || image.height < 1 || image.channels < 1 ||
       image.pixels.size() != std::size_t(image.width) * image.height * image.channels)
     throw std::runtime_error(fmt::format("{}: image has inconsistent size {}x{}x{} ({} floats)", path, image.width,
                                          image.height, image.channels, image.pixels.size()));
   const OiioModule& io = oiio();
-  // The module picks the format from the final name (and reports an
-  // unknown one); the temporary keeps the extension too.
-  const fs::path final_path(path);
-  const fs::path tmp = final_path.parent_path() /
-                       fmt::format(".{}.tmp{}{}", final_path.stem().string(), ::getpid(), final_path.extension().string());
   const bool as_float = is_float_format(path);
   std::vector<std::uint8_t> bytes;
   if (!as_float) {
@@ -94,19 +89,33 @@ void write_image(const std::string& path, const core::Image& image) {
       bytes[i] = static_cast<std::uint8_t>(std::lround(v * 255.0f));
     }
   }
+  const void* pixels = as_float ? static_cast<const void*>(image.pixels.data()) : bytes.data();
+  char error[512] = "";
+  if (!io.write(path.c_str(), file_path.c_str(), image.width, image.height, image.channels, as_float ? 1 : 0,
+                pixels, error, sizeof error))
+    throw std::runtime_error(fmt::format("{}: {}", path, error));
+}
+
+void write_image(const std::string& path, const core::Image& image) {
+  namespace fs = std::filesystem;
+  // The module picks the format from the final name; the temporary is
+  // written in that format under its own name.
+  const fs::path final_path(path);
+  const fs::path tmp = final_path.parent_path() /
+                       fmt::format(".{}.tmp{}{}", final_path.stem().string(), ::getpid(), final_path.extension().string());
   auto fail = [&](const std::string& what) {
     std::error_code ec;
     fs::remove(tmp, ec);
-    throw std::runtime_error(fmt::format("{}: {}", path, what));
+    throw std::runtime_error(what);
   };
-  const void* pixels = as_float ? static_cast<const void*>(image.pixels.data()) : bytes.data();
-  char error[512] = "";
-  if (!io.write(path.c_str(), tmp.string().c_str(), image.width, image.height, image.channels, as_float ? 1 : 0,
-                pixels, error, sizeof error))
-    fail(error);
+  try {
+    write_image_as(path, tmp.string(), image);
+  } catch (const std::runtime_error& e) {
+    fail(e.what());
+  }
   std::error_code ec;
   fs::rename(tmp, final_path, ec);
-  if (ec) fail("cannot rename the temporary file into place: " + ec.message());
+  if (ec) fail(fmt::format("{}: cannot rename the temporary file into place: {}", path, ec.message()));
 }
 
 }  // namespace raynode::imageio

@@ -26,4 +26,10 @@ bool can_write_format(const std::string& path);
 /// (unknown extension, unwritable directory, ...).
 void write_image(const std::string& path, const core::Image& image);
 
+/// Writes `image` to `file_path` in the format that the extension of
+/// `format_path` names, with write_image's conversions, straight into
+/// `file_path` (no temporary: the caller owns the file, e.g. a temporary of
+/// apps/output_files.h). Throws std::runtime_error naming `format_path`.
+void write_image_as(const std::string& format_path, const std::string& file_path, const core::Image& image);
+
 }  // namespace raynode::imageio

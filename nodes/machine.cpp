@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "core/stop.h"
 #include "nodes/cpu_time.h"
 
 namespace raynode::nodes {
@@ -217,12 +218,12 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
     std::unique_lock<std::mutex> lock(done_mutex);
     const std::uint32_t started = std::uint32_t(threads.size());
     auto all_done = [&] { return running <= (n + 1) - started; };
-    if (params_.timeout_s > 0 || params_.stall_timeout_s > 0) {
+    {  // always watched: a process-wide stop request (core/stop.h) ends the run too
       using clock = std::chrono::steady_clock;
       const auto start = clock::now();
       auto last_change = start;
       std::uint64_t last_progress = state.progress.load(std::memory_order_relaxed);
-      const double tick = params_.stall_timeout_s > 0 ? std::min(0.25, params_.stall_timeout_s / 4) : 0.25;
+      const double tick = params_.stall_timeout_s > 0 ? std::min(0.1, params_.stall_timeout_s / 4) : 0.1;
       std::string why;
       while (!done_cv.wait_for(lock, std::chrono::duration<double>(tick), all_done)) {
         const auto now = clock::now();
@@ -231,6 +232,10 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
         const double stalled = std::chrono::duration<double>(now - last_change).count();
         if (params_.stall_timeout_s > 0 && stalled >= params_.stall_timeout_s) {
           why = fmt::format("no message was sent for {:.3g} s (watchdog, --stall-timeout)", stalled);
+          break;
+        }
+        if (core::stop_requested()) {
+          why = core::stop_message();
           break;
         }
         if (params_.timeout_s > 0 && std::chrono::duration<double>(now - start).count() >= params_.timeout_s) {
@@ -243,8 +248,6 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
         state.fail(kHost, std::make_exception_ptr(std::runtime_error(
                               fmt::format("{}; stopped. {}", why, describe_waits(state)))));
       }
-    } else {
-      done_cv.wait(lock, all_done);
     }
   }
   for (std::thread& t : threads) t.join();

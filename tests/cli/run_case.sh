@@ -12,6 +12,16 @@
 #   --limit S        seconds before the case counts as hung (default 60)
 #   --stdout REGEX   a line of stdout must match REGEX (grep -E); repeatable
 #   --no-stdout REGEX  no line of stdout may match REGEX; repeatable
+#   --check CMD      shell command run in WORKDIR afterwards that must succeed
+#                    (e.g. a file's content, a symlink kept); repeatable
+#   --signal SIG@S   send signal SIG (TERM, INT, ...) to raynode S seconds
+#                    after its start (it runs as a job of its own, so that
+#                    SIGINT is not ignored as in a background job)
+#   --env VAR=VALUE  run raynode with this environment variable; repeatable
+#   --left FILE      a failing case may leave FILE (and must): what an
+#                    interrupted command keeps, e.g. a sweep's CSV
+#   --max-seconds S  raynode must end within S wall seconds (hard limits:
+#                    --timeout plus its grace)
 #
 # For a failing case (EXPECT_RC != 0) the work directory must hold exactly the
 # files it held before the run: no image, no --stats JSON, no AOV, no
@@ -20,7 +30,7 @@ set -uo pipefail
 
 raynode=$(realpath "$1") workdir=$2 expect_rc=$3 regex=$4
 shift 4
-setup=() present=() stdout_re=() no_stdout_re=() max_lines=2 limit=60
+setup=() present=() stdout_re=() no_stdout_re=() checks=() envs=() left=() max_lines=2 limit=60 signal="" max_seconds=""
 while [ $# -gt 0 ] && [ "$1" != "--" ]; do
   case $1 in
     --setup) setup+=("$2"); shift 2 ;;
@@ -29,6 +39,11 @@ while [ $# -gt 0 ] && [ "$1" != "--" ]; do
     --limit) limit=$2; shift 2 ;;
     --stdout) stdout_re+=("$2"); shift 2 ;;
     --no-stdout) no_stdout_re+=("$2"); shift 2 ;;
+    --check) checks+=("$2"); shift 2 ;;
+    --env) envs+=("$2"); shift 2 ;;
+    --left) left+=("$2"); shift 2 ;;
+    --signal) signal=$2; shift 2 ;;
+    --max-seconds) max_seconds=$2; shift 2 ;;
     *) echo "run_case.sh: unknown option '$1'" >&2; exit 2 ;;
   esac
 done
@@ -41,9 +56,26 @@ for cmd in "${setup[@]}"; do
 done
 before=$(find . -mindepth 1 | LC_ALL=C sort)
 
-timeout --kill-after=5 "$limit" "$raynode" "$@" >stdout.txt 2>stderr.txt </dev/null
-rc=$?
+start_ns=$(date +%s%N)
+if [ -n "$signal" ]; then
+  set -m  # job control: the job gets its own process group and keeps SIGINT
+  env "${envs[@]}" timeout --kill-after=5 "$limit" "$raynode" "$@" >stdout.txt 2>stderr.txt </dev/null &
+  job=$!
+  sleep "${signal#*@}"
+  # The signal goes to raynode, the child of timeout(1).
+  pkill -"${signal%@*}" -P "$job" -x "$(basename "$raynode")"
+  wait "$job"
+  rc=$?
+  set +m
+else
+  env "${envs[@]}" timeout --kill-after=5 "$limit" "$raynode" "$@" >stdout.txt 2>stderr.txt </dev/null
+  rc=$?
+fi
+elapsed_ms=$(( ($(date +%s%N) - start_ns) / 1000000 ))
 after=$(find . -mindepth 1 ! -name stdout.txt ! -name stderr.txt | LC_ALL=C sort)
+for f in "${left[@]}"; do
+  after=$(echo "$after" | grep -vxF "./$f")
+done
 
 fail=0
 say() { echo "FAIL: $*"; fail=1; }
@@ -67,6 +99,15 @@ for re in "${stdout_re[@]}"; do
 done
 for re in "${no_stdout_re[@]}"; do
   ! grep -Eq -- "$re" stdout.txt || { say "a line of stdout matches /$re/, which none should; stdout:"; sed 's/^/  | /' stdout.txt; }
+done
+if [ -n "$max_seconds" ] && [ "$elapsed_ms" -gt $(( max_seconds * 1000 )) ]; then
+  say "raynode took ${elapsed_ms} ms, more than the ${max_seconds} s allowed"
+fi
+for c in "${checks[@]}"; do
+  bash -c "$c" || say "check failed: $c"
+done
+for f in "${left[@]}"; do
+  [ -s "$f" ] || say "'$f' should have been kept, but is missing or empty"
 done
 for f in "${present[@]}"; do
   [ -s "$f" ] || say "expected output '$f' is missing or empty"
