@@ -104,7 +104,8 @@ void parse_cache(const std::string& text, svm::SvmParams& params) {
     params.cache_fraction = v / 100.0;
   } else {
     if (!(v >= 1 && v <= 4294967295.0) || v != std::floor(v))
-      throw UsageError("--cache must be at least 1 page (a whole number), got '" + text + "'");
+      throw UsageError("--cache must be a whole number of pages from 1 to 4294967295, or a percentage, got '" + text +
+                       "'");
     params.cache_pages = std::uint32_t(v);
   }
 }
@@ -221,7 +222,8 @@ core::RenderResult render_frame(const RenderOptions& o, const core::Database& db
   if (is_node_mode(o.mode) && accel.embree)
     throw UsageError("--accel embree is for the in-process modes; --mode " + o.mode + " traces with the grid");
   if (node_aov && !is_node_mode(o.mode))
-    throw UsageError("--aov node needs a node-emulator mode (--mode replicated or svm)");
+    throw UsageError("--aov node needs a node-emulator mode (--mode replicated, svm or dataflow), not --mode " +
+                     o.mode);
   if (pages_aov && o.mode != "svm") throw UsageError("--aov pages needs --mode svm");
   const bool region_aov = std::find(o.aovs.begin(), o.aovs.end(), "region") != o.aovs.end();
   if (region_aov && o.mode != "dataflow") throw UsageError("--aov region needs --mode dataflow");

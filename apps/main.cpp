@@ -53,8 +53,9 @@ int main(int argc, char** argv) {
     fmt::print(stderr, "raynode: error: {}\n", e.what());
     return 2;
   } catch (const std::bad_alloc&) {
-    fmt::print(stderr, "raynode: error: out of memory (std::bad_alloc): the scene, its grid or the image needs more "
-                       "memory than this process could get; try a smaller scene, -t or image\n");
+    fmt::print(stderr, "raynode: error: out of memory (std::bad_alloc): the scene, its grid, the image, or in the "
+                       "node modes the nodes' memories and mailboxes (--nodes x --node-memory, --queue-capacity) need "
+                       "more than this process could get; try a smaller scene, -t, image or fewer nodes\n");
     return 1;
   } catch (const std::exception& e) {
     fmt::print(stderr, "raynode: error: {}\n", e.what());
