@@ -179,6 +179,23 @@ void run_bench_nodes(const NodesBenchOptions& o) {
                "efficiency", "work_s", "grants", "miss_ratio", "pages/px", balanced ? "  eff_charged" : "");
   nlohmann::json rows = nlohmann::json::array();
   double t1 = 0, t1_work_s = 0;  // the one-node run's T_p and busy time
+  std::optional<double> one_node_ratio, one_node_median;  // set after the rows
+  // The --json document; written after every row, so an interrupted bench keeps the rows it finished.
+  auto json_doc = [&] {
+    return nlohmann::json{{"scene", o.source.spec},       {"mode", o.mode},   {"network", o.run.network},
+                          {"clock", o.run.clock},         {"width", o.run.width}, {"height", o.run.height},
+                          {"submaps", o.run.submaps},     {"work_grants", o.run.work_grants},
+                          {"work_requests", o.run.work_requests}, {"pack_cells", o.pack_min},
+                          {"sequential_s", sequential_s}, {"sequential_cpu_s", sequential_cpu_s},
+                          {"one_node_over_sequential",
+                           one_node_ratio ? nlohmann::json(*one_node_ratio) : nlohmann::json()},
+                          {"one_node_over_sequential_median",
+                           one_node_median ? nlohmann::json(*one_node_median) : nlohmann::json()},
+                          {"one_node_pair_ratios", pair_ratios},
+                          {"rows", rows}}
+        .dump(2) +
+        "\n";
+  };
   for (int n : o.nodes) {
     const NodeRun best = n == 1 && one_node ? *one_node : run_best(db, grid, o.mode, spec, std::uint32_t(n));
     if (!best.fits) {
@@ -223,6 +240,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
       row["communication_rate_bytes_per_s"] = *best.communication_rate_bytes_per_s;
     }
     rows.push_back(std::move(row));
+    if (!o.json_path.empty()) files.update(json_out, json_doc());
   }
   if (t1 == 0) fmt::print("(no 1-node run in --nodes: speedup needs T_1)\n");
   if (balanced)
@@ -234,7 +252,6 @@ void run_bench_nodes(const NodesBenchOptions& o) {
   // busy CPU time over sequential's, each the best of --repeat, and the
   // median of the pairs' ratios. Under the model clock the node's time is
   // modelled, not measured: no ratio.
-  std::optional<double> one_node_ratio, one_node_median;
   if (t1 > 0 && cpu_clock && sequential_cpu_s > 0) {
     one_node_ratio = t1_work_s / sequential_cpu_s;
     if (!pair_ratios.empty()) one_node_median = median(pair_ratios);
@@ -243,18 +260,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
                *one_node_ratio, std::max(1, o.run.repeat), pair_ratios.size(), one_node_median.value_or(0));
   }
   if (!o.json_path.empty()) {
-    files.text(json_out, nlohmann::json{{"scene", o.source.spec},       {"mode", o.mode},   {"network", o.run.network},
-                        {"clock", o.run.clock},         {"width", o.run.width}, {"height", o.run.height},
-                        {"submaps", o.run.submaps},     {"work_grants", o.run.work_grants},
-                        {"work_requests", o.run.work_requests}, {"pack_cells", o.pack_min},
-                        {"sequential_s", sequential_s}, {"sequential_cpu_s", sequential_cpu_s},
-                        {"one_node_over_sequential", one_node_ratio ? nlohmann::json(*one_node_ratio) : nlohmann::json()},
-                        {"one_node_over_sequential_median",
-                         one_node_median ? nlohmann::json(*one_node_median) : nlohmann::json()},
-                        {"one_node_pair_ratios", pair_ratios},
-                        {"rows", rows}}
-                                 .dump(2) +
-                             "\n");
+    files.text(json_out, json_doc());
     files.commit();
   }
 }
