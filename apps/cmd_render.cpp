@@ -320,7 +320,7 @@ void run_render(const RenderOptions& o) {
     else if (a == "depth") params.depth_aov = true;
     else if (a == "normal") params.normal_aov = true;
     else if (a == "primitive") params.primitive_aov = true;
-    else throw UsageError("unknown AOV '" + a + "' (supported: depth, normal, primitive, node, pages)");
+    else throw UsageError("unknown AOV '" + a + "' (supported: depth, normal, primitive, node, pages, region)");
   }
   if (!imageio::is_float_format(o.output) && std::filesystem::path(o.output).extension().empty())
     throw UsageError("output '" + o.output + "' has no extension to choose the image format");
@@ -515,8 +515,8 @@ void register_render_command(CLI::App& app) {
       ->check(CLI::IsMember({"sequential", "shared", "replicated", "svm", "dataflow"}))
       ->capture_default_str();
   c->add_option("--nodes", o->nodes,
-                "Emulated nodes (threads with private memories), for the node-emulator modes (replicated); "
-                "sequential and shared need 1")
+                "Emulated nodes (threads with private memories), for the node-emulator modes (replicated, svm, "
+                "dataflow); sequential and shared need 1")
       ->check(CLI::Range(1, 4096))
       ->capture_default_str();
   c->add_option("--accel", o->accel,
@@ -550,7 +550,8 @@ void register_render_command(CLI::App& app) {
                 "(NAME.primitive.exr: file-order index of the NFF shape hit, counting p/pp/s/c statements "
                 "from 0 after --tessellate, -1 on a miss), node (node modes: NAME.node.exr, id of the node that "
                 "computed the pixel, and NAME.node.png, one colour per node, as in the paper's Figure 6), pages "
-                "(svm: NAME.pages.exr, distinct pages touched per pixel, and NAME.pages.png, its heat map)")
+                "(svm: NAME.pages.exr, distinct pages touched per pixel, and NAME.pages.png, its heat map), region "
+                "(dataflow: NAME.region.exr, the region of each primary hit, -1 on a miss)")
       ->delimiter(',')
       ->check(CLI::IsMember({"depth", "normal", "primitive", "node", "pages", "region"}));
   c->add_option("--page-size", o->page_size,

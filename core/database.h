@@ -8,7 +8,7 @@
 // from (`shape`, its index in file order) so images and AOVs can name it.
 //
 // A Primitive is 64 bytes, one cache line; svm pages these records
-// (DESIGN.md "svm"), so they hold no pointers, only indices.
+// (docs/architecture.md "svm"), so they hold no pointers, only indices.
 #pragma once
 
 #include <cstddef>

@@ -1,5 +1,5 @@
 // DirectView: the database view over plain in-memory arrays. Used by
-// sequential, shared and replicated modes (DESIGN.md, "One tracer, several
+// sequential, shared and replicated modes (docs/architecture.md, "One tracer, several
 // data views"): the host's Database + Grid, or a node's own copy of the
 // same arrays in its arena (DatabaseArrays). Cheap to copy; refers to, does
 // not own, the arrays, which must outlive it.

@@ -3,7 +3,8 @@
 // AOVs of the centre ray's first hit).
 //
 // Place in the data flow: Database + Grid -> a database view (DirectView;
-// EmbreeView for --accel embree, embree_view.h; svm/dataflow views later)
+// EmbreeView for --accel embree, embree_view.h; svm's PagedView and dataflow's
+// RegionView in their folders)
 // -> render_pixel for each pixel ->
 // core::Image -> imageio::write_image (apps only). Sequential and shared
 // modes compute each pixel with the same code, independent of the thread,

@@ -1,4 +1,4 @@
-// A process-wide stop request: how `--timeout` and SIGINT/SIGTERM reach
+// A process-wide stop request: how `--timeout` reaches
 // work that has no clock of its own (reading and parsing a scene,
 // triangulating polygons, tessellating, building the grid, and every ray of
 // a render, however deep its reflection tree).

@@ -2,7 +2,7 @@
 // Fast Voxel Traversal Algorithm for Ray Tracing", Eurographics 1987) with
 // per-ray mailboxing, written against a *database view* so that sequential,
 // replicated, svm and dataflow modes run the same code on the same values
-// (DESIGN.md, "One tracer, several data views").
+// (docs/architecture.md, "One tracer, several data views").
 //
 // A database view V provides (all const, owner thread only):
 //   const GridInfo& grid_info() const;

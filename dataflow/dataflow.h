@@ -1,6 +1,6 @@
 // `--mode dataflow`: the paper's data-oriented ray tracer (Badouel,
 // Bouatouch & Priol 1994, "Experiments with data-oriented parallelization";
-// DESIGN.md, "dataflow"). The database is partitioned into 3D regions of
+// docs/architecture.md, "dataflow"). The database is partitioned into 3D regions of
 // equal estimated load, one per node; rays, not data, travel.
 //
 // Data flow:

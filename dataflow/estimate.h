@@ -1,5 +1,5 @@
 // Load estimate of the data-oriented mode (paper, "Static load balancing",
-// steps 1 and 2; DESIGN.md, "dataflow"): the host traces a subsample of the
+// steps 1 and 2; docs/architecture.md, "dataflow"): the host traces a subsample of the
 // pixels — one pixel per `subsample` x `subsample` block, 8 giving the
 // paper's 1.5% — with the sequential tracer and charges the traversal work
 // of every ray (primary, shadow, reflected, refracted) to the cells of a 2D

@@ -1,4 +1,4 @@
-// Messages of the data-oriented mode (DESIGN.md, "dataflow"; CONVENTIONS:
+// Messages of the data-oriented mode (docs/architecture.md, "dataflow"; CONVENTIONS:
 // plain trivially copyable structs with ids, never pointers). Wire size =
 // the payload's size.
 //

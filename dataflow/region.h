@@ -1,7 +1,7 @@
 // Regions of the data-oriented mode: the scene extent cut into 3D regions by
 // median planes perpendicular to the screen's x and y axes (paper, "Static
 // load balancing", Figure 2b), and the geometry every node needs to move a
-// ray from region to region (DESIGN.md, "dataflow").
+// ray from region to region (docs/architecture.md, "dataflow").
 //
 // Place in the data flow: estimate.h's CostGrid -> make_partition -> a
 // Partition (kd-tree of cuts + one ScreenRect per region) -> the host picks

@@ -1,5 +1,5 @@
 // A node's database in the data-oriented mode: the primitives overlapping
-// its region and a local grid over the region (DESIGN.md, "One tracer,
+// its region and a local grid over the region (docs/architecture.md, "One tracer,
 // several data views": RegionView; paper, "Algorithm overview": "all the
 // processors subdivide the region for which they are responsible").
 //

@@ -1,5 +1,5 @@
 // A node's private memory: a byte budget that everything the node holds is
-// allocated from (DESIGN.md, "The node emulator"; the paper's iPSC/2 node has
+// allocated from (docs/architecture.md, "The node emulator"; the paper's iPSC/2 node has
 // 4 MiB). Place in the data flow: Machine creates one Arena per node (and an
 // unbounded one for the host); the node's mailbox, its share of the database,
 // its page cache and page table are all carved from it.

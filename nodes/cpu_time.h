@@ -1,6 +1,6 @@
 // The calling thread's own CPU time (CLOCK_THREAD_CPUTIME_ID): what a node's
 // virtual clock advances by while it computes, so that oversubscribed node
-// threads still measure only their own work (DESIGN.md, "Virtual time").
+// threads still measure only their own work (docs/architecture.md, "Virtual time").
 #pragma once
 
 #include <ctime>

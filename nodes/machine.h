@@ -1,6 +1,6 @@
 // The emulated distributed-memory machine: N node threads plus a host, each
 // with its own arena and mailbox, a topology and a network cost model
-// (DESIGN.md, "The node emulator").
+// (docs/architecture.md, "The node emulator").
 //
 // Place in the data flow: a mode (replicated, svm, dataflow) builds
 // MachineParams, then Machine::run(node_main, host_main, setup):

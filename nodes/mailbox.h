@@ -1,6 +1,6 @@
 // A node's mailbox: a bounded, lock-free, multi-producer single-consumer
 // queue of fixed-size slots, each holding one message header and up to
-// `max_payload` payload bytes (DESIGN.md, "Mailbox").
+// `max_payload` payload bytes (docs/architecture.md, "Mailbox").
 //
 // Place in the data flow: any thread's NodeContext::send -> try_push into the
 // receiver's mailbox; the owner's NodeContext::receive -> try_pop / wait.

@@ -1,6 +1,6 @@
 // Messages of the emulated network: a small fixed header plus a payload of
 // plain bytes, copied into the receiver's mailbox as a network would copy
-// them (DESIGN.md, "Messages"; CONVENTIONS: trivially copyable structs that
+// them (docs/architecture.md, "Messages"; CONVENTIONS: trivially copyable structs that
 // carry ids, never pointers).
 //
 // Place in the data flow: node code -> NodeContext::send(dest, payload) ->

@@ -1,4 +1,4 @@
-// The network cost model of the emulated machine (DESIGN.md, "Virtual
+// The network cost model of the emulated machine (docs/architecture.md, "Virtual
 // time"): a message of b bytes crossing h links arrives
 //     arrival = departure + latency + b x per_byte + h x per_hop
 // in virtual seconds. The receiver's clock becomes max(own, arrival).

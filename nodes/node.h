@@ -1,5 +1,5 @@
 // A node's whole world: its id, arena, mailbox, virtual clock, counters and
-// the topology (DESIGN.md, "The node emulator"; CONVENTIONS: "node code
+// the topology (docs/architecture.md, "The node emulator"; CONVENTIONS: "node code
 // reaches its world only through its node context").
 //
 // Place in the data flow: Machine::run creates one NodeContext per node (and
@@ -77,7 +77,7 @@ class RunAborted : public std::runtime_error {
 
 /// What advances a node's clock while it computes.
 enum class ComputeClock {
-  kCpu,    ///< the thread's own CPU time (CLOCK_THREAD_CPUTIME_ID), as DESIGN.md states
+  kCpu,    ///< the thread's own CPU time (CLOCK_THREAD_CPUTIME_ID), as docs/architecture.md states
   kModel,  ///< a cost model of the work done (operation counts x calibrated unit costs,
            ///< core/cost_model.h): deterministic, and blind to the host's cache refills
            ///< and thread switches

@@ -1,5 +1,5 @@
 // The interconnection network's shape: which nodes are neighbours and how
-// many hops a message travels (DESIGN.md, "Topology"). The iPSC/2 of the
+// many hops a message travels (docs/architecture.md, "Topology"). The iPSC/2 of the
 // paper is a hypercube; ring and 2D torus are there for comparison.
 //
 // Place in the data flow: Machine owns one Topology; the network model

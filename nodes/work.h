@@ -1,5 +1,5 @@
 // Work distribution over the pixels (the paper's control-oriented
-// scheduling, reused by replicated and svm modes; DESIGN.md, "svm"):
+// scheduling, reused by replicated and svm modes; docs/architecture.md, "svm"):
 // each node owns a submap of the image (near-square parts of equal area, the
 // paper's, or with SubmapRule::kBalanced parts of near-equal estimated cost:
 // make_balanced_submaps, submap_plan.h), renders it work item by

@@ -1,6 +1,6 @@
 // The shared virtual memory's contents: the whole tracing database laid out
 // in fixed-size pages by the host (paper, "Distributing data": object
-// paging, "an object belongs to one and only one page"; DESIGN.md, "svm").
+// paging, "an object belongs to one and only one page"; docs/architecture.md, "svm").
 //
 // Place in the data flow: Database + Grid (host) -> build_paged_image ->
 // PagedImage (PageLayout + every page's bytes) -> each node's setup copies

@@ -1,4 +1,4 @@
-// PagedView: the database view of svm mode (DESIGN.md, "One tracer,
+// PagedView: the database view of svm mode (docs/architecture.md, "One tracer,
 // several data views"). Every object the one tracer reads — a cell's
 // directory entry, the pieces of its primitive list, a primitive, a
 // triangle's vertex normals — is found through the node's page table

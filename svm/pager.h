@@ -1,6 +1,6 @@
 // A node's side of the shared virtual memory: its page table, its home
 // pages, an LRU page cache and the page-fault protocol (paper,
-// "Distributing data"; DESIGN.md, "svm").
+// "Distributing data"; docs/architecture.md, "svm").
 //
 // Place in the data flow: svm's setup builds one Pager per node in the
 // node's arena and copies the node's home pages into it; PagedView
