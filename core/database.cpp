@@ -1,7 +1,12 @@
 #include "core/database.h"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <stdexcept>
+#include <string>
+
+#include "core/stop.h"
 
 namespace raynode::core {
 
@@ -61,22 +66,10 @@ bool triangle_area_is_zero(const Vec3& a, const Vec3& b, const Vec3& c) {
   return is_degenerate_polygon(v, 3);
 }
 
-}  // namespace
-
-void triangulate_polygon(const Vec3* verts, std::uint32_t n, std::vector<std::uint32_t>& out,
-                         bool drop_degenerate) {
-  if (n < 3) return;
-  auto emit = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
-    if (drop_degenerate && triangle_area_is_zero(verts[a], verts[b], verts[c])) return;
-    out.push_back(a);
-    out.push_back(b);
-    out.push_back(c);
-  };
-  if (n == 3) {
-    emit(0, 1, 2);
-    return;
-  }
-  // Newell normal picks the projection plane and the polygon's orientation.
+/// Projects the polygon onto the plane its Newell normal is most nearly
+/// perpendicular to, turned so that it runs counter-clockwise: p = x0 y0 x1
+/// y1 ... (2n doubles).
+void project_polygon(const Vec3* verts, std::uint32_t n, std::vector<double>& p) {
   double nrm[3] = {0, 0, 0};
   for (std::uint32_t i = 0; i < n; ++i) {
     const Vec3& a = verts[i];
@@ -89,23 +82,58 @@ void triangulate_polygon(const Vec3* verts, std::uint32_t n, std::vector<std::ui
   if (std::fabs(nrm[1]) > std::fabs(nrm[drop])) drop = 1;
   if (std::fabs(nrm[2]) > std::fabs(nrm[drop])) drop = 2;
   const int ax = (drop + 1) % 3, ay = (drop + 2) % 3;
-  // Project so that the polygon is counter-clockwise in 2D.
   const double sign = nrm[drop] >= 0 ? 1.0 : -1.0;
-  std::vector<double> p(2 * n);
+  p.resize(2 * std::size_t(n));
   for (std::uint32_t i = 0; i < n; ++i) {
     p[2 * i] = verts[i][ax];
     p[2 * i + 1] = sign * verts[i][ay];
   }
+}
+
+/// Convex in projection: no right turn (collinear and repeated vertices
+/// allowed) and the edge directions go round once, which holds when the
+/// signs of the edges' x and of their y steps each change at most twice
+/// around the polygon (a star or a polygon that winds twice changes more
+/// often). O(n).
+bool projected_is_convex(const std::vector<double>& p, std::uint32_t n) {
+  int x_changes = 0, y_changes = 0;
+  int last_x = 0, last_y = 0, first_x = 0, first_y = 0;
+  auto count = [](double d, int& last, int& first, int& changes) {
+    const int s = d > 0 ? 1 : d < 0 ? -1 : 0;
+    if (s == 0) return;
+    if (first == 0) first = s;
+    else if (s != last) ++changes;
+    last = s;
+  };
+  for (std::uint32_t i = 0; i < n; ++i) {
+    const std::uint32_t j = i + 1 == n ? 0 : i + 1, k = j + 1 == n ? 0 : j + 1;
+    if (orient2d(&p[2 * i], &p[2 * j], &p[2 * k]) < 0) return false;
+    count(p[2 * j] - p[2 * i], last_x, first_x, x_changes);
+    count(p[2 * j + 1] - p[2 * i + 1], last_y, first_y, y_changes);
+  }
+  x_changes += first_x != 0 && last_x != first_x;  // the change across the wrap
+  y_changes += first_y != 0 && last_y != first_y;
+  return x_changes <= 2 && y_changes <= 2;
+}
+
+/// Eberly's ear clipping over the projected polygon, O(n^2) (see
+/// triangulate_polygon). Polls the stop request about every 2^20 vertex tests.
+template <class Emit>
+void ear_clip(const std::vector<double>& p, std::uint32_t n, Emit&& emit) {
   std::vector<std::uint32_t> idx(n);
   for (std::uint32_t i = 0; i < n; ++i) idx[i] = i;
-
-  // Eberly's ear clipping, O(n^2): an ear is a convex corner whose triangle
-  // contains no other remaining vertex. Collinear corners are clipped as
-  // (dropped) zero-area ears.
+  // An ear is a convex corner whose triangle contains no other remaining
+  // vertex. Collinear corners are clipped as (dropped) zero-area ears.
   std::size_t guard = 0;
   std::size_t i = 0;
+  std::size_t work = 0;  // vertex tests since the last stop poll
   while (idx.size() > 3) {
     const std::size_t m = idx.size();
+    work += m;
+    if (work >= (std::size_t{1} << 20)) {
+      work = 0;
+      if (stop_requested()) throw_if_stopped(fmt::format("triangulating a polygon of {} vertices", n));
+    }
     const std::uint32_t ia = idx[(i + m - 1) % m], ib = idx[i % m], ic = idx[(i + 1) % m];
     const double* a = &p[2 * ia];
     const double* b = &p[2 * ib];
@@ -143,6 +171,51 @@ void triangulate_polygon(const Vec3* verts, std::uint32_t n, std::vector<std::ui
   emit(idx[0], idx[1], idx[2]);
 }
 
+}  // namespace
+
+bool is_convex_polygon(const Vec3* verts, std::uint32_t n) {
+  if (n <= 3) return true;
+  std::vector<double> p;
+  project_polygon(verts, n, p);
+  return projected_is_convex(p, n);
+}
+
+void triangulate_polygon(const Vec3* verts, std::uint32_t n, std::vector<std::uint32_t>& out,
+                         bool drop_degenerate) {
+  if (n < 3) return;
+  auto emit = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+    if (drop_degenerate && triangle_area_is_zero(verts[a], verts[b], verts[c])) return;
+    out.push_back(a);
+    out.push_back(b);
+    out.push_back(c);
+  };
+  if (n == 3) {
+    emit(0, 1, 2);
+    return;
+  }
+  std::vector<double> p;
+  project_polygon(verts, n, p);
+  if (n > kEarClippingVertices && projected_is_convex(p, n)) {
+    // The triangles ear clipping gives a convex polygon, in its order: it
+    // clips the corner at vertex 0, then 1, ... (each time with the last
+    // vertex), so a fan around vertex n-1 whose last triangle starts at n-3.
+    const std::string doing = fmt::format("triangulating a convex polygon of {} vertices", n);
+    for (std::uint32_t k = 0; k + 3 < n; ++k) {
+      if ((k & 4095u) == 0) throw_if_stopped(doing);
+      emit(n - 1, k, k + 1);
+    }
+    emit(n - 3, n - 2, n - 1);
+    return;
+  }
+  if (n > kMaxConcavePolygonVertices) {
+    throw std::invalid_argument(fmt::format(
+        "a polygon of {} vertices is not convex; a concave polygon may have at most {} vertices (ear clipping "
+        "takes time quadratic in the count); split it into smaller polygons",
+        n, kMaxConcavePolygonVertices));
+  }
+  ear_clip(p, n, emit);
+}
+
 Database make_database(const Scene& scene, const DatabaseParams& params) {
   Database db;
   db.materials = scene.materials;
@@ -155,8 +228,14 @@ Database make_database(const Scene& scene, const DatabaseParams& params) {
   db.primitives.reserve(scene.shapes.size());
 
   std::vector<std::uint32_t> tris;
+  std::size_t work = 0;  // shapes and polygon vertices since the last stop poll
   for (std::size_t si = 0; si < scene.shapes.size(); ++si) {
     const Shape& s = scene.shapes[si];
+    work += 1 + ((s.kind == ShapeKind::kPolygon || s.kind == ShapeKind::kPatch) ? s.count : 0);
+    if (work >= 4096) {
+      work = 0;
+      throw_if_stopped("making the database (triangulating polygons)");
+    }
     Primitive prim;
     prim.material = s.material;
     prim.shape = static_cast<std::uint32_t>(si);
@@ -165,7 +244,11 @@ Database make_database(const Scene& scene, const DatabaseParams& params) {
       case ShapeKind::kPatch: {
         const Vec3* v = &scene.vertices[s.first];
         tris.clear();
-        triangulate_polygon(v, s.count, tris, params.drop_degenerate);
+        try {
+          triangulate_polygon(v, s.count, tris, params.drop_degenerate);
+        } catch (const std::invalid_argument& e) {
+          throw std::invalid_argument(fmt::format("shape {} (in file order): {}", si, e.what()));
+        }
         db.dropped_degenerate_triangles += (s.count - 2) - tris.size() / 3;
         prim.kind = PrimitiveKind::kTriangle;
         for (std::size_t t = 0; t < tris.size(); t += 3) {

@@ -94,14 +94,33 @@ struct DatabaseParams {
 /// into triangles (ear clipping on the polygon's dominant plane; handles
 /// concave polygons such as the SPD gears faces), spheres and cones are kept
 /// analytic. Throws std::invalid_argument if the scene has more than 2^32-2
-/// primitives.
+/// primitives or a concave polygon that is too long (triangulate_polygon,
+/// naming the shape), StopError when a stop is requested (core/stop.h).
 Database make_database(const Scene& scene, const DatabaseParams& params = {});
 
+/// Polygons of at most this many vertices are always split by ear clipping,
+/// as they always were; above it a convex polygon takes the O(n) path.
+inline constexpr std::uint32_t kEarClippingVertices = 1024;
+/// The most vertices a polygon that is not convex may have: ear clipping
+/// takes O(n^2) time (about 1 s at this count). The NFF reader refuses a
+/// longer concave polygon with its location; convex ones have no such cap.
+inline constexpr std::uint32_t kMaxConcavePolygonVertices = 20000;
+
+/// True when the polygon, projected on its dominant plane as
+/// triangulate_polygon projects it, makes no right turn and goes round
+/// once (collinear and repeated vertices allowed). O(n) time.
+bool is_convex_polygon(const Vec3* verts, std::uint32_t n);
+
 /// Splits a planar polygon (n >= 3 vertices, convex or concave, simple) into
-/// n-2 triangles by ear clipping; appends vertex-index triples (into `verts`)
-/// to `out`, each ordered like the polygon (same facing). Zero-area ears are
-/// skipped when `drop_degenerate`. Source: Eberly, "Triangulation by Ear
-/// Clipping" (2002).
+/// n-2 triangles; appends vertex-index triples (into `verts`) to `out`, each
+/// ordered like the polygon (same facing). Zero-area triangles are skipped
+/// when `drop_degenerate`. Up to kEarClippingVertices vertices, and for any
+/// polygon that is not convex, by ear clipping (Eberly, "Triangulation by Ear
+/// Clipping", 2002; O(n^2)); a longer convex polygon is split in O(n) into
+/// the triangles ear clipping would give it (a fan around its last vertex).
+/// Throws std::invalid_argument for a polygon that is not convex with more
+/// than kMaxConcavePolygonVertices vertices, StopError when a stop is
+/// requested (core/stop.h).
 void triangulate_polygon(const Vec3* verts, std::uint32_t n, std::vector<std::uint32_t>& out,
                          bool drop_degenerate = true);
 
