@@ -90,30 +90,23 @@ void project_polygon(const Vec3* verts, std::uint32_t n, std::vector<double>& p)
   }
 }
 
-/// Convex in projection: no right turn (collinear and repeated vertices
-/// allowed) and the edge directions go round once, which holds when the
-/// signs of the edges' x and of their y steps each change at most twice
-/// around the polygon (a star or a polygon that winds twice changes more
-/// often). O(n).
-bool projected_is_convex(const std::vector<double>& p, std::uint32_t n) {
-  int x_changes = 0, y_changes = 0;
-  int last_x = 0, last_y = 0, first_x = 0, first_y = 0;
-  auto count = [](double d, int& last, int& first, int& changes) {
-    const int s = d > 0 ? 1 : d < 0 ? -1 : 0;
-    if (s == 0) return;
-    if (first == 0) first = s;
-    else if (s != last) ++changes;
-    last = s;
-  };
-  for (std::uint32_t i = 0; i < n; ++i) {
-    const std::uint32_t j = i + 1 == n ? 0 : i + 1, k = j + 1 == n ? 0 : j + 1;
-    if (orient2d(&p[2 * i], &p[2 * j], &p[2 * k]) < 0) return false;
-    count(p[2 * j] - p[2 * i], last_x, first_x, x_changes);
-    count(p[2 * j + 1] - p[2 * i + 1], last_y, first_y, y_changes);
+/// True when the fan around the last vertex covers the projected polygon
+/// once: the fan's triangles have the polygon's signed area as their sum
+/// (exactly, in exact arithmetic), and covering it once means their
+/// absolute areas sum to no more, up to kFanAreaTolerance of it. True of
+/// every convex polygon and of every polygon star-shaped from its last
+/// vertex, also when rounding of the stored coordinates makes a few tiny
+/// triangles turn over; false of a star seen from a tip, a comb, a spiral.
+/// O(n).
+bool fan_covers(const std::vector<double>& p, std::uint32_t n) {
+  const double* apex = &p[2 * std::size_t(n - 1)];
+  double sum = 0, abs_sum = 0;
+  for (std::uint32_t k = 0; k + 2 < n; ++k) {
+    const double a = orient2d(apex, &p[2 * std::size_t(k)], &p[2 * std::size_t(k) + 2]);
+    sum += a;
+    abs_sum += std::fabs(a);
   }
-  x_changes += first_x != 0 && last_x != first_x;  // the change across the wrap
-  y_changes += first_y != 0 && last_y != first_y;
-  return x_changes <= 2 && y_changes <= 2;
+  return sum > 0 && abs_sum <= sum * (1 + kFanAreaTolerance);
 }
 
 /// Eberly's ear clipping over the projected polygon, O(n^2) (see
@@ -173,11 +166,11 @@ void ear_clip(const std::vector<double>& p, std::uint32_t n, Emit&& emit) {
 
 }  // namespace
 
-bool is_convex_polygon(const Vec3* verts, std::uint32_t n) {
+bool fan_covers_polygon(const Vec3* verts, std::uint32_t n) {
   if (n <= 3) return true;
   std::vector<double> p;
   project_polygon(verts, n, p);
-  return projected_is_convex(p, n);
+  return fan_covers(p, n);
 }
 
 void triangulate_polygon(const Vec3* verts, std::uint32_t n, std::vector<std::uint32_t>& out,
@@ -195,11 +188,11 @@ void triangulate_polygon(const Vec3* verts, std::uint32_t n, std::vector<std::ui
   }
   std::vector<double> p;
   project_polygon(verts, n, p);
-  if (n > kEarClippingVertices && projected_is_convex(p, n)) {
+  if (n > kEarClippingVertices && fan_covers(p, n)) {
     // The triangles ear clipping gives a convex polygon, in its order: it
     // clips the corner at vertex 0, then 1, ... (each time with the last
     // vertex), so a fan around vertex n-1 whose last triangle starts at n-3.
-    const std::string doing = fmt::format("triangulating a convex polygon of {} vertices", n);
+    const std::string doing = fmt::format("triangulating a polygon of {} vertices (as a fan)", n);
     for (std::uint32_t k = 0; k + 3 < n; ++k) {
       if ((k & 4095u) == 0) throw_if_stopped(doing);
       emit(n - 1, k, k + 1);
@@ -210,7 +203,8 @@ void triangulate_polygon(const Vec3* verts, std::uint32_t n, std::vector<std::ui
   if (n > kMaxConcavePolygonVertices) {
     throw std::invalid_argument(fmt::format(
         "a polygon of {} vertices is not convex; a concave polygon may have at most {} vertices (ear clipping "
-        "takes time quadratic in the count); split it into smaller polygons",
+        "takes time quadratic in the count), unless it is star-shaped from its last vertex; split it into smaller "
+        "polygons",
         n, kMaxConcavePolygonVertices));
   }
   ear_clip(p, n, emit);

@@ -99,27 +99,37 @@ struct DatabaseParams {
 Database make_database(const Scene& scene, const DatabaseParams& params = {});
 
 /// Polygons of at most this many vertices are always split by ear clipping,
-/// as they always were; above it a convex polygon takes the O(n) path.
+/// as they always were; above it a polygon the fan around its last vertex
+/// covers (fan_covers_polygon: every convex one) is split in O(n).
 inline constexpr std::uint32_t kEarClippingVertices = 1024;
-/// The most vertices a polygon that is not convex may have: ear clipping
-/// takes O(n^2) time (about 1 s at this count). The NFF reader refuses a
-/// longer concave polygon with its location; convex ones have no such cap.
+/// The most vertices a polygon the fan does not cover (concave, and not
+/// star-shaped from its last vertex) may have: ear clipping takes O(n^2)
+/// time (0.5-1.6 s at this count). The NFF reader refuses a longer one with
+/// its location.
 inline constexpr std::uint32_t kMaxConcavePolygonVertices = 20000;
+/// How much more than the polygon's area the fan's triangles may cover in
+/// all (relative): room for the tiny triangles that turn over where rounding
+/// of the coordinates makes a convex outline zig-zag (a 300000-vertex circle
+/// written with 6 digits: 2.9e-6, 2186 of its triangles).
+inline constexpr double kFanAreaTolerance = 1e-5;
 
-/// True when the polygon, projected on its dominant plane as
-/// triangulate_polygon projects it, makes no right turn and goes round
-/// once (collinear and repeated vertices allowed). O(n) time.
-bool is_convex_polygon(const Vec3* verts, std::uint32_t n);
+/// True when the fan around the last vertex covers the polygon, projected
+/// on its dominant plane as triangulate_polygon projects it, once: the fan
+/// triangles' absolute areas sum to the polygon's area within
+/// kFanAreaTolerance. True of every convex polygon, and of one star-shaped
+/// from its last vertex. O(n) time.
+bool fan_covers_polygon(const Vec3* verts, std::uint32_t n);
 
 /// Splits a planar polygon (n >= 3 vertices, convex or concave, simple) into
 /// n-2 triangles; appends vertex-index triples (into `verts`) to `out`, each
 /// ordered like the polygon (same facing). Zero-area triangles are skipped
 /// when `drop_degenerate`. Up to kEarClippingVertices vertices, and for any
-/// polygon that is not convex, by ear clipping (Eberly, "Triangulation by Ear
-/// Clipping", 2002; O(n^2)); a longer convex polygon is split in O(n) into
-/// the triangles ear clipping would give it (a fan around its last vertex).
-/// Throws std::invalid_argument for a polygon that is not convex with more
-/// than kMaxConcavePolygonVertices vertices, StopError when a stop is
+/// longer polygon the fan does not cover, by ear clipping (Eberly,
+/// "Triangulation by Ear Clipping", 2002; O(n^2)); a longer polygon the fan
+/// covers is split in O(n) into that fan around its last vertex, in the
+/// order ear clipping gives a convex polygon.
+/// Throws std::invalid_argument for a polygon the fan does not cover with
+/// more than kMaxConcavePolygonVertices vertices, StopError when a stop is
 /// requested (core/stop.h).
 void triangulate_polygon(const Vec3* verts, std::uint32_t n, std::vector<std::uint32_t>& out,
                          bool drop_degenerate = true);

@@ -358,9 +358,10 @@ class Parser {
     }
     // Ear clipping a concave polygon takes O(n^2) time: refused here, where
     // the file location is known (database.h).
-    if (count > kMaxConcavePolygonVertices && !is_convex_polygon(verts_.data(), count)) {
+    if (count > kMaxConcavePolygonVertices && !fan_covers_polygon(verts_.data(), count)) {
       lex_.fail_at(at, fmt::format("{} has {} vertices and is not convex; a concave {} may have at most {} "
-                                   "vertices (triangulating one takes time quadratic in its vertices): split it",
+                                   "vertices (triangulating one takes time quadratic in its vertices) unless it is "
+                                   "star-shaped from its last vertex: split it",
                                    noun, n, noun, kMaxConcavePolygonVertices));
     }
     if (patch) {
