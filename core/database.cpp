@@ -90,24 +90,58 @@ void project_polygon(const Vec3* verts, std::uint32_t n, std::vector<double>& p)
   }
 }
 
-/// True when the fan around the last vertex covers the projected polygon
-/// once: the fan's triangles have the polygon's signed area as their sum
-/// (exactly, in exact arithmetic), and covering it once means their
-/// absolute areas sum to no more, up to kFanAreaTolerance of it. True of
-/// every convex polygon and of every polygon star-shaped from its last
-/// vertex, also when rounding of the stored coordinates makes a few tiny
-/// triangles turn over; false of a star seen from a tip, a comb, a spiral.
-/// O(n).
-bool fan_covers(const std::vector<double>& p, std::uint32_t n) {
-  const double* apex = &p[2 * std::size_t(n - 1)];
-  double sum = 0, abs_sum = 0;
-  for (std::uint32_t k = 0; k + 2 < n; ++k) {
-    const double a = orient2d(apex, &p[2 * std::size_t(k)], &p[2 * std::size_t(k) + 2]);
-    sum += a;
-    abs_sum += std::fabs(a);
+/// The balanced split: the triangle (0, n/2, n-1), then the same within
+/// each of the two chains it cuts off, down to single triangles. n-2
+/// triangles in the polygon's orientation whose sizes halve level by level,
+/// so that a grid lists each in few cells (a fan's long slivers each cross
+/// most of the grid). Any polygon, any shape: whether the triangles cover it
+/// is for covers_once() to say.
+template <class Emit>
+void balanced_split(std::uint32_t n, Emit&& emit) {
+  struct Chain {
+    std::uint32_t first, last;  // vertices first..last, closed by the chord last -> first
+  };
+  std::vector<Chain> todo{{0, n - 1}};  // depth first: at most ~log2(n) pending per level
+  while (!todo.empty()) {
+    const Chain c = todo.back();
+    todo.pop_back();
+    if (c.last - c.first < 2) continue;
+    const std::uint32_t mid = c.first + (c.last - c.first) / 2;
+    emit(c.first, mid, c.last);
+    todo.push_back({mid, c.last});
+    todo.push_back({c.first, mid});
   }
+}
+
+/// The fan around the last vertex, in the order ear clipping gives a convex
+/// polygon: it clips the corner at vertex 0, then 1, ... (each time with the
+/// last vertex), the last triangle starting at n-3.
+template <class Emit>
+void fan_split(std::uint32_t n, Emit&& emit) {
+  for (std::uint32_t k = 0; k + 3 < n; ++k) emit(n - 1, k, k + 1);
+  emit(n - 3, n - 2, n - 1);
+}
+
+/// True when the triangles `split` makes cover the projected polygon once.
+/// Any split into n-2 triangles along diagonals has the polygon's signed
+/// area as the sum of theirs (exactly, in exact arithmetic) and covers each
+/// point as often as the outline winds round it; the triangles cover the
+/// polygon once when none turns over, i.e. when their absolute areas sum to
+/// no more, up to kFanAreaTolerance of it (room for rounding of the stored
+/// coordinates). O(n).
+template <class Split>
+bool covers_once(const std::vector<double>& p, std::uint32_t n, Split&& split) {
+  double sum = 0, abs_sum = 0;
+  split(n, [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+    const double t = orient2d(&p[2 * std::size_t(a)], &p[2 * std::size_t(b)], &p[2 * std::size_t(c)]);
+    sum += t;
+    abs_sum += std::fabs(t);
+  });
   return sum > 0 && abs_sum <= sum * (1 + kFanAreaTolerance);
 }
+
+const auto kBalanced = [](std::uint32_t n, auto&& emit) { balanced_split(n, emit); };
+const auto kFan = [](std::uint32_t n, auto&& emit) { fan_split(n, emit); };
 
 /// Eberly's ear clipping over the projected polygon, O(n^2) (see
 /// triangulate_polygon). Polls the stop request about every 2^20 vertex tests.
@@ -166,11 +200,11 @@ void ear_clip(const std::vector<double>& p, std::uint32_t n, Emit&& emit) {
 
 }  // namespace
 
-bool fan_covers_polygon(const Vec3* verts, std::uint32_t n) {
+bool splits_in_linear_time(const Vec3* verts, std::uint32_t n) {
   if (n <= 3) return true;
   std::vector<double> p;
   project_polygon(verts, n, p);
-  return fan_covers(p, n);
+  return covers_once(p, n, kBalanced) || covers_once(p, n, kFan);
 }
 
 void triangulate_polygon(const Vec3* verts, std::uint32_t n, std::vector<std::uint32_t>& out,
@@ -188,24 +222,24 @@ void triangulate_polygon(const Vec3* verts, std::uint32_t n, std::vector<std::ui
   }
   std::vector<double> p;
   project_polygon(verts, n, p);
-  if (n > kEarClippingVertices && fan_covers(p, n)) {
-    // The triangles ear clipping gives a convex polygon, in its order: it
-    // clips the corner at vertex 0, then 1, ... (each time with the last
-    // vertex), so a fan around vertex n-1 whose last triangle starts at n-3.
-    const std::string doing = fmt::format("triangulating a polygon of {} vertices (as a fan)", n);
-    for (std::uint32_t k = 0; k + 3 < n; ++k) {
-      if ((k & 4095u) == 0) throw_if_stopped(doing);
-      emit(n - 1, k, k + 1);
+  if (n > kEarClippingVertices) {
+    // O(n): the balanced split when it covers the polygon (every convex
+    // one), else the fan when it does (one star-shaped from its last vertex).
+    const std::string doing = fmt::format("triangulating a polygon of {} vertices", n);
+    std::uint32_t made = 0;
+    auto emit_polled = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+      if ((made++ & 4095u) == 0) throw_if_stopped(doing);
+      emit(a, b, c);
+    };
+    if (covers_once(p, n, kBalanced)) return balanced_split(n, emit_polled);
+    if (covers_once(p, n, kFan)) return fan_split(n, emit_polled);
+    if (n > kMaxConcavePolygonVertices) {
+      throw std::invalid_argument(fmt::format(
+          "a polygon of {} vertices is not convex; a concave polygon may have at most {} vertices (ear clipping "
+          "takes time quadratic in the count), unless it is star-shaped from its last vertex; split it into "
+          "smaller polygons",
+          n, kMaxConcavePolygonVertices));
     }
-    emit(n - 3, n - 2, n - 1);
-    return;
-  }
-  if (n > kMaxConcavePolygonVertices) {
-    throw std::invalid_argument(fmt::format(
-        "a polygon of {} vertices is not convex; a concave polygon may have at most {} vertices (ear clipping "
-        "takes time quadratic in the count), unless it is star-shaped from its last vertex; split it into smaller "
-        "polygons",
-        n, kMaxConcavePolygonVertices));
   }
   ear_clip(p, n, emit);
 }

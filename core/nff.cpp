@@ -358,7 +358,7 @@ class Parser {
     }
     // Ear clipping a concave polygon takes O(n^2) time: refused here, where
     // the file location is known (database.h).
-    if (count > kMaxConcavePolygonVertices && !fan_covers_polygon(verts_.data(), count)) {
+    if (count > kMaxConcavePolygonVertices && !splits_in_linear_time(verts_.data(), count)) {
       lex_.fail_at(at, fmt::format("{} has {} vertices and is not convex; a concave {} may have at most {} "
                                    "vertices (triangulating one takes time quadratic in its vertices) unless it is "
                                    "star-shaped from its last vertex: split it",

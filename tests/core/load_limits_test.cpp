@@ -310,7 +310,7 @@ TEST_CASE("stop request: triangulating a long polygon stops inside it") {
   std::vector<std::uint32_t> tris;
   const std::vector<Vec3> square = square_polygon(5000, 5000);
   CHECK(what_of_stop([&] { triangulate_polygon(square.data(), std::uint32_t(square.size()), tris); }) ==
-        "deadline: stopped while triangulating a polygon of 20000 vertices (as a fan)");
+        "deadline: stopped while triangulating a polygon of 20000 vertices");
   const std::vector<Vec3> star = star_polygon(4000);
   CHECK(what_of_stop([&] { triangulate_polygon(star.data(), std::uint32_t(star.size()), tris); }) ==
         "deadline: stopped while triangulating a polygon of 4000 vertices");
@@ -318,15 +318,35 @@ TEST_CASE("stop request: triangulating a long polygon stops inside it") {
 
 // --- Triangulation -----------------------------------------------------------------
 
-TEST_CASE("triangulation: a convex polygon gets the same triangles on the ear-clipping and the O(n) paths") {
+TEST_CASE("triangulation: a convex polygon is ear-clipped up to 1024 vertices, split in balance above") {
   // Ear clipping of a convex polygon clips vertex 0, 1, ... against the last
-  // vertex: a fan around n-1 whose last triangle is (n-3, n-2, n-1).
-  auto expected = [](std::uint32_t n) {
-    std::vector<std::uint32_t> t;
-    for (std::uint32_t k = 0; k + 3 < n; ++k) t.insert(t.end(), {n - 1, k, k + 1});
-    t.insert(t.end(), {n - 3, n - 2, n - 1});
+  // vertex: a fan around n-1 whose last triangle is (n-3, n-2, n-1). Above
+  // kEarClippingVertices: (0, n/2, n-1), then the same within each chain.
+  using Triangles = std::vector<std::uint32_t>;
+  auto add = [](Triangles& t, std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+    t.push_back(a);
+    t.push_back(b);
+    t.push_back(c);
+  };
+  auto fan = [&](std::uint32_t n) {
+    Triangles t;
+    for (std::uint32_t k = 0; k + 3 < n; ++k) add(t, n - 1, k, k + 1);
+    add(t, n - 3, n - 2, n - 1);
     return t;
   };
+  auto balanced = [&](std::uint32_t n) {
+    Triangles t;
+    std::function<void(std::uint32_t, std::uint32_t)> split = [&](std::uint32_t i, std::uint32_t j) {
+      if (j - i < 2) return;
+      const std::uint32_t m = i + (j - i) / 2;
+      add(t, i, m, j);
+      split(i, m);
+      split(m, j);
+    };
+    split(0, n - 1);
+    return t;
+  };
+  auto expected = [&](std::uint32_t n) { return n > kEarClippingVertices ? balanced(n) : fan(n); };
   for (const std::uint32_t n : {5u, 64u, kEarClippingVertices, kEarClippingVertices + 1, 5000u}) {
     CAPTURE(n);
     std::vector<Vec3> v;  // a circle: strictly convex at these counts
@@ -334,7 +354,7 @@ TEST_CASE("triangulation: a convex polygon gets the same triangles on the ear-cl
       const double a = 2 * 3.141592653589793 * i / n;
       v.push_back({float(10 * std::cos(a)), 2.0f, float(-10 * std::sin(a))});  // in the xz plane, either facing
     }
-    REQUIRE(fan_covers_polygon(v.data(), n));
+    REQUIRE(splits_in_linear_time(v.data(), n));
     std::vector<std::uint32_t> tris;
     triangulate_polygon(v.data(), n, tris, false);
     CHECK(tris == expected(n));
@@ -345,7 +365,7 @@ TEST_CASE("triangulation: a convex polygon of 300000 vertices with collinear run
   const std::vector<Vec3> v = square_polygon(75000, 75000);
   const auto n = std::uint32_t(v.size());
   REQUIRE(n == 300000);
-  CHECK(fan_covers_polygon(v.data(), n));
+  CHECK(splits_in_linear_time(v.data(), n));
   std::vector<std::uint32_t> tris;
   triangulate_polygon(v.data(), n, tris, false);
   // n - 2 triangles covering the square once (those along the apex's own sides have no area).
@@ -360,14 +380,14 @@ TEST_CASE("triangulation: a convex polygon of 300000 vertices with collinear run
   CHECK(make_database(s).primitives.size() == kept.size() / 3);
 }
 
-TEST_CASE("triangulation: the fan covers convex and star-shaped polygons, not a star seen from a tip") {
+TEST_CASE("triangulation: convex and star-shaped polygons split in linear time, a many-pointed star does not") {
   // A fat 5-pointed star is seen whole from an inner corner; a 20-pointed one is not.
   const std::vector<Vec3> fat = star_polygon(10);
-  CHECK(fan_covers_polygon(fat.data(), 10));
+  CHECK(splits_in_linear_time(fat.data(), 10));
   const std::vector<Vec3> star = star_polygon(40);
-  CHECK_FALSE(fan_covers_polygon(star.data(), 40));
+  CHECK_FALSE(splits_in_linear_time(star.data(), 40));
   const std::vector<Vec3> square = square_polygon(4, 4);
-  CHECK(fan_covers_polygon(square.data(), 16));
+  CHECK(splits_in_linear_time(square.data(), 16));
   // A pac-man: concave, but every vertex is seen from its last vertex, the centre.
   std::vector<Vec3> pacman;
   for (int i = 0; i <= 300; ++i) {
@@ -375,12 +395,12 @@ TEST_CASE("triangulation: the fan covers convex and star-shaped polygons, not a 
     pacman.push_back({float(std::cos(a)), float(std::sin(a)), 0});
   }
   pacman.push_back({0, 0, 0});
-  CHECK(fan_covers_polygon(pacman.data(), std::uint32_t(pacman.size())));
-  std::rotate(pacman.begin(), pacman.end() - 1, pacman.end());  // the centre first: the fan would overlap
-  CHECK_FALSE(fan_covers_polygon(pacman.data(), std::uint32_t(pacman.size())));
+  CHECK(splits_in_linear_time(pacman.data(), std::uint32_t(pacman.size())));
+  std::rotate(pacman.begin(), pacman.end() - 1, pacman.end());  // the centre first: the balanced split covers it
+  CHECK(splits_in_linear_time(pacman.data(), std::uint32_t(pacman.size())));
 }
 
-TEST_CASE("triangulation: a 300000-vertex circle whose float coordinates zig-zag is still split as a fan") {
+TEST_CASE("triangulation: a 300000-vertex circle whose float coordinates zig-zag is still split in linear time") {
   // At this count consecutive turns are ~2e-5 rad: float rounding makes some
   // of them turn right, so the outline is no longer convex, yet the fan
   // covers it but for a few tiny triangles.
@@ -390,7 +410,7 @@ TEST_CASE("triangulation: a 300000-vertex circle whose float coordinates zig-zag
     const double a = 2 * 3.141592653589793 * i / n;
     v.push_back({float(100 * std::cos(a)), float(100 * std::sin(a)), 7.0f});
   }
-  CHECK(fan_covers_polygon(v.data(), n));
+  CHECK(splits_in_linear_time(v.data(), n));
   const Scene s = parse_nff(polygon_nff(v), "circle.nff");
   CHECK(make_database(s).primitives.size() > n / 2);
   // Written with 6 significant digits the outline zig-zags more (2186 of the
