@@ -5,9 +5,10 @@
 // when it starts with the gzip magic, within a memory limit), then parsed as
 // a stream of whitespace-separated tokens with std::from_chars. `#` starts a
 // comment only where a token would start: inside a token it is part of the
-// token (so MSVC's `1.#INF` is an error, not the number 1). Only byte offsets are tracked while parsing; the
-// 1-based line and column are computed from the offset when an error is
-// thrown, so the hot loop pays nothing for locations.
+// token (so MSVC's `1.#INF` is an error, not the number 1). Only byte offsets
+// are tracked while parsing; the 1-based line and column are computed from
+// the offset when an error is thrown, so the hot loop pays nothing for
+// locations. Parsing polls the stop request (core/stop.h).
 //
 // Writer: formats into an fmt::memory_buffer and hands it to a sink in large
 // chunks (an ostream, a FILE*, or a gzFile). Floats use fmt's shortest
@@ -85,7 +86,6 @@ enum class NumberStatus { kOk, kNotANumber, kNotFinite };
 bool magnitude_below_one(std::string_view tok) {
   std::size_t i = 0;
   if (i < tok.size() && (tok[i] == '+' || tok[i] == '-')) ++i;
-  long long lead = 0;  // power of ten of the first non-zero digit
   bool found = false, after_point = false;
   long long int_digits = 0, frac_zeros = 0;
   for (; i < tok.size(); ++i) {
@@ -103,13 +103,15 @@ bool magnitude_below_one(std::string_view tok) {
     }
   }
   if (!found) return true;  // all zeros
-  lead = int_digits > 0 ? int_digits - 1 : -frac_zeros - 1;
+  const long long lead = int_digits > 0 ? int_digits - 1 : -frac_zeros - 1;  // power of ten of the first digit
   long long exp = 0;
   if (i < tok.size() && (tok[i] == 'e' || tok[i] == 'E')) {
     ++i;
     bool negative = false;
     if (i < tok.size() && (tok[i] == '+' || tok[i] == '-')) negative = tok[i++] == '-';
-    for (; i < tok.size() && tok[i] >= '0' && tok[i] <= '9'; ++i) exp = std::min(exp * 10 + (tok[i] - '0'), 1'000'000'000'000LL);
+    for (; i < tok.size() && tok[i] >= '0' && tok[i] <= '9'; ++i) {
+      exp = std::min(exp * 10 + (tok[i] - '0'), 1'000'000'000'000LL);
+    }
     if (negative) exp = -exp;
   }
   return lead + exp < 0;
@@ -120,7 +122,9 @@ bool magnitude_below_one(std::string_view tok) {
 bool is_msvc_non_finite(std::string_view rest) {
   if (rest.empty() || rest[0] != '#') return false;
   std::string up;
-  for (std::size_t i = 1; i < rest.size() && i < 5; ++i) up += static_cast<char>(std::toupper(static_cast<unsigned char>(rest[i])));
+  for (std::size_t i = 1; i < rest.size() && i < 5; ++i) {
+    up += static_cast<char>(std::toupper(static_cast<unsigned char>(rest[i])));
+  }
   return up.rfind("INF", 0) == 0 || up.rfind("IND", 0) == 0 || up.rfind("QNAN", 0) == 0 ||
          up.rfind("SNAN", 0) == 0;
 }
