@@ -181,6 +181,9 @@ std::string gunzip_bytes(std::string_view in, const std::string& path, std::size
   };
   const std::string doing = fmt::format("decompressing '{}'", path);
   std::string out;
+  // A first guess from the compressed size, which is real (NFF text
+  // compresses about 4-12:1), never from the size trailer, which may lie.
+  out.reserve(std::min(limit, in.size() * 8));
   std::vector<char> chunk(kInflateChunk);
   std::size_t in_pos = 0;
   constexpr std::size_t kStep = std::size_t{1} << 30;  // zlib counts input in uInt
