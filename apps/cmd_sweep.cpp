@@ -372,11 +372,12 @@ NodeRun run_t1(SweepFrame& f, const std::string& mode, NodeRunSpec spec, std::st
   NodeRun r = run_best(f.db, f.grid, mode, spec, 1);
   if (r.fits) return r;
   const std::string why = r.skipped;
-  r = run_best(f.db, f.grid, mode, spec, 1, kT1FallbackMemory);
+  const std::size_t fallback = t1_fallback_memory();
+  r = run_best(f.db, f.grid, mode, spec, 1, fallback);
   note = fmt::format("T_1 ran with --node-memory {} because one {} node cannot hold it ({})",
-                     nodes::format_bytes(kT1FallbackMemory), nodes::format_bytes(spec.machine.node_memory), why);
+                     nodes::format_bytes(fallback), nodes::format_bytes(spec.machine.node_memory), why);
   fmt::print(stderr, "sweep {}: note: {} T_1 runs with {} of node memory: {}\n", f.kind, mode,
-             nodes::format_bytes(kT1FallbackMemory), why);
+             nodes::format_bytes(fallback), why);
   return r;
 }
 

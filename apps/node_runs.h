@@ -165,8 +165,14 @@ NodeRun run_best(const core::Database& db, const core::Grid& grid, const std::st
 
 /// Node memory for a one-node run (T_1) of a database that does not fit
 /// --node-memory: the arena is only a budget, so this is accounting, not
-/// memory taken.
+/// memory taken. At most the host's physical memory (t1_fallback_memory),
+/// as the machine allows no more (nodes::check_nodes_fit_host).
 inline constexpr std::size_t kT1FallbackMemory = std::size_t(64) << 30;
+/// kT1FallbackMemory, or the host's physical memory when that is less. Bytes.
+inline std::size_t t1_fallback_memory() {
+  const std::size_t host = nodes::host_physical_memory();
+  return host > 0 && host < kT1FallbackMemory ? host : kT1FallbackMemory;
+}
 
 /// The median of `values` (the mean of the middle two for an even count);
 /// NaN for none. Takes a copy: the caller's order stays.

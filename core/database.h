@@ -94,14 +94,45 @@ struct DatabaseParams {
 /// into triangles (ear clipping on the polygon's dominant plane; handles
 /// concave polygons such as the SPD gears faces), spheres and cones are kept
 /// analytic. Throws std::invalid_argument if the scene has more than 2^32-2
-/// primitives.
+/// primitives or a concave polygon that is too long (triangulate_polygon,
+/// naming the shape), StopError when a stop is requested (core/stop.h).
 Database make_database(const Scene& scene, const DatabaseParams& params = {});
 
+/// Polygons of at most this many vertices are always split by ear clipping,
+/// as they always were; above it a polygon that splits_in_linear_time (every
+/// convex one) is split in O(n).
+inline constexpr std::uint32_t kEarClippingVertices = 1024;
+/// The most vertices a longer polygon that does not split in linear time
+/// (concave, and not star-shaped from its last vertex) may have: ear
+/// clipping takes O(n^2) time (0.5-1.6 s at this count). The NFF reader
+/// refuses a longer one with its location.
+inline constexpr std::uint32_t kMaxConcavePolygonVertices = 20000;
+/// How much more than the polygon's area the triangles of a linear-time
+/// split may cover in all (relative): room for the tiny triangles that turn
+/// over where rounding of the coordinates makes a convex outline zig-zag (a
+/// 300000-vertex circle written with 6 digits: 2.9e-6 with the fan).
+inline constexpr double kFanAreaTolerance = 1e-5;
+
+/// True when the polygon, projected on its dominant plane as
+/// triangulate_polygon projects it, is covered once, within
+/// kFanAreaTolerance of its area, by the balanced split (triangle (0, n/2,
+/// n-1), then the same within each chain it cuts off: true of every convex
+/// polygon) or by the fan around its last vertex (true of one star-shaped
+/// from that vertex). O(n) time.
+bool splits_in_linear_time(const Vec3* verts, std::uint32_t n);
+
 /// Splits a planar polygon (n >= 3 vertices, convex or concave, simple) into
-/// n-2 triangles by ear clipping; appends vertex-index triples (into `verts`)
-/// to `out`, each ordered like the polygon (same facing). Zero-area ears are
-/// skipped when `drop_degenerate`. Source: Eberly, "Triangulation by Ear
-/// Clipping" (2002).
+/// n-2 triangles; appends vertex-index triples (into `verts`) to `out`, each
+/// ordered like the polygon (same facing). Zero-area triangles are skipped
+/// when `drop_degenerate`. Up to kEarClippingVertices vertices, and for any
+/// longer polygon that does not split_in_linear_time, by ear clipping
+/// (Eberly, "Triangulation by Ear Clipping", 2002; O(n^2)); a longer one
+/// that does is split in O(n), by the balanced split where it covers the
+/// polygon (its triangles halve in size level by level, which a grid lists
+/// in few cells), else by the fan.
+/// Throws std::invalid_argument for a polygon that does not split in linear
+/// time with more than kMaxConcavePolygonVertices vertices, StopError when a
+/// stop is requested (core/stop.h).
 void triangulate_polygon(const Vec3* verts, std::uint32_t n, std::vector<std::uint32_t>& out,
                          bool drop_degenerate = true);
 

@@ -1,8 +1,13 @@
 #include "core/grid.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
+
+#include "core/stop.h"
 
 namespace raynode::core {
 
@@ -150,7 +155,16 @@ Grid build_grid(const Database& db, const GridParams& params) {
   // Pass 1 collects (cell, primitive) pairs; a counting sort makes the CSR.
   std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
   pairs.reserve(db.primitives.size() * 2);
+  // Polled every 4096 primitives and every 4096 cells tested (one primitive
+  // may span most of a large grid).
+  std::size_t work = 0;
+  auto poll_stop = [&] {
+    if (stop_requested())
+      throw_if_stopped(fmt::format("building the grid ({} primitives, {}x{}x{} cells)", db.primitives.size(),
+                                   info.res[0], info.res[1], info.res[2]));
+  };
   for (std::uint32_t pi = 0; pi < db.primitives.size(); ++pi) {
+    if ((pi & 4095u) == 0) poll_stop();
     const Primitive& p = db.primitives[pi];
     int lo[3], hi[3];
     cell_range(p.bounds(), lo, hi);
@@ -162,6 +176,7 @@ Grid build_grid(const Database& db, const GridParams& params) {
     for (int z = lo[2]; z <= hi[2]; ++z)
       for (int y = lo[1]; y <= hi[1]; ++y)
         for (int x = lo[0]; x <= hi[0]; ++x) {
+          if ((++work & 4095u) == 0) poll_stop();
           bool in = true;
           if (!single) {
             double c[3], h[3];

@@ -1,11 +1,14 @@
 // NFF reader and writer. See nff.h for the contract and
 // ../shared/scenes/NFF-NOTES.md for the format.
 //
-// Reader: the whole file is read into memory (inflated first when it starts
-// with the gzip magic), then parsed as a stream of whitespace-separated tokens
-// with std::from_chars. Only byte offsets are tracked while parsing; the
-// 1-based line and column are computed from the offset when an error is
-// thrown, so the hot loop pays nothing for locations.
+// Reader: the whole file is read into memory (scene_file.h: inflated first
+// when it starts with the gzip magic, within a memory limit), then parsed as
+// a stream of whitespace-separated tokens with std::from_chars. `#` starts a
+// comment only where a token would start: inside a token it is part of the
+// token (so MSVC's `1.#INF` is an error, not the number 1). Only byte offsets
+// are tracked while parsing; the 1-based line and column are computed from
+// the offset when an error is thrown, so the hot loop pays nothing for
+// locations. Parsing polls the stop request (core/stop.h).
 //
 // Writer: formats into an fmt::memory_buffer and hands it to a sink in large
 // chunks (an ostream, a FILE*, or a gzFile). Floats use fmt's shortest
@@ -16,6 +19,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -33,6 +37,10 @@
 #include <vector>
 
 #include <fmt/format.h>
+
+#include "core/database.h"
+#include "core/scene_file.h"
+#include "core/stop.h"
 
 namespace raynode::core {
 
@@ -55,7 +63,8 @@ constexpr long long kMaxResolution = 16384;
 // Lexer
 // ---------------------------------------------------------------------------
 
-/// Character classes: 0 = token character, 1 = whitespace, 2 = '#' (comment).
+/// Character classes: 0 = token character, 1 = whitespace, 2 = '#' (a
+/// comment where a token would start; a token character inside a token).
 constexpr std::array<std::uint8_t, 256> make_char_classes() {
   std::array<std::uint8_t, 256> t{};
   for (unsigned char c : {' ', '\t', '\n', '\r', '\f', '\v'}) t[c] = 1;
@@ -64,25 +73,81 @@ constexpr std::array<std::uint8_t, 256> make_char_classes() {
 }
 constexpr std::array<std::uint8_t, 256> kCharClass = make_char_classes();
 
-inline bool is_delimiter(char c) { return kCharClass[static_cast<unsigned char>(c)] != 0; }
+/// Ends a token: whitespace only ('#' inside a token belongs to it).
+inline bool is_delimiter(char c) { return kCharClass[static_cast<unsigned char>(c)] == 1; }
 
 /// How a numeric token failed to convert.
 enum class NumberStatus { kOk, kNotANumber, kNotFinite };
 
-/// Converts a whole token to a float. Accepts a leading '+', and values that
-/// underflow float (they become 0 or a denormal); rejects nan/inf and values
-/// that overflow float.
+/// True when a decimal token that std::from_chars accepted whole (sign,
+/// digits, optional '.' digits, optional exponent) has a magnitude below 1:
+/// its leading digit's power of ten, plus the exponent, is negative. The
+/// exponent saturates, so 1e-99999999999999999999 is still below 1.
+bool magnitude_below_one(std::string_view tok) {
+  std::size_t i = 0;
+  if (i < tok.size() && (tok[i] == '+' || tok[i] == '-')) ++i;
+  bool found = false, after_point = false;
+  long long int_digits = 0, frac_zeros = 0;
+  for (; i < tok.size(); ++i) {
+    const char c = tok[i];
+    if (c == '.') {
+      after_point = true;
+      continue;
+    }
+    if (c < '0' || c > '9') break;
+    if (!after_point) {
+      if (found || c != '0') found = true, ++int_digits;
+    } else if (!found) {
+      if (c != '0') found = true;
+      else ++frac_zeros;
+    }
+  }
+  if (!found) return true;  // all zeros
+  const long long lead = int_digits > 0 ? int_digits - 1 : -frac_zeros - 1;  // power of ten of the first digit
+  long long exp = 0;
+  if (i < tok.size() && (tok[i] == 'e' || tok[i] == 'E')) {
+    ++i;
+    bool negative = false;
+    if (i < tok.size() && (tok[i] == '+' || tok[i] == '-')) negative = tok[i++] == '-';
+    for (; i < tok.size() && tok[i] >= '0' && tok[i] <= '9'; ++i) {
+      exp = std::min(exp * 10 + (tok[i] - '0'), 1'000'000'000'000LL);
+    }
+    if (negative) exp = -exp;
+  }
+  return lead + exp < 0;
+}
+
+/// MSVC's spellings of infinities and NaNs after a number: 1.#INF, 1.#IND,
+/// 1.#QNAN, 1.#SNAN (any case, any suffix).
+bool is_msvc_non_finite(std::string_view rest) {
+  if (rest.empty() || rest[0] != '#') return false;
+  std::string up;
+  for (std::size_t i = 1; i < rest.size() && i < 5; ++i) {
+    up += static_cast<char>(std::toupper(static_cast<unsigned char>(rest[i])));
+  }
+  return up.rfind("INF", 0) == 0 || up.rfind("IND", 0) == 0 || up.rfind("QNAN", 0) == 0 ||
+         up.rfind("SNAN", 0) == 0;
+}
+
+/// Converts a whole token to a float. Accepts a leading '+'. A finite
+/// decimal too small for float rounds as IEEE 754 round-to-nearest does: to
+/// a denormal, or to zero with its sign when below half the smallest
+/// denormal (about 7e-46), however small (1e-50 and 1e-400 both read as 0).
+/// Rejects nan/inf (also MSVC's 1.#INF) and values that overflow float
+/// (above about 3.4e38) as not finite.
 NumberStatus token_to_float(std::string_view tok, float& out) {
   const char* first = tok.data();
   const char* last = tok.data() + tok.size();
   if (first != last && *first == '+') ++first;
   auto [ptr, ec] = std::from_chars(first, last, out);
   if (ec == std::errc::result_out_of_range && ptr == last) {
-    double d = 0.0;
-    auto [dptr, dec] = std::from_chars(first, last, d);
-    if (dec != std::errc{} || dptr != last || !(std::fabs(d) < 1.0)) return NumberStatus::kNotFinite;
-    out = static_cast<float>(d);  // underflow: keep the denormal or signed zero
+    if (!magnitude_below_one({first, static_cast<std::size_t>(last - first)})) return NumberStatus::kNotFinite;
+    out = *first == '-' ? -0.0f : 0.0f;  // underflow: rounds to a signed zero
     return NumberStatus::kOk;
+  }
+  if (ptr != first && ptr != last && ec != std::errc::invalid_argument &&
+      is_msvc_non_finite({ptr, static_cast<std::size_t>(last - ptr)})) {
+    return NumberStatus::kNotFinite;
   }
   if (ec != std::errc{} || ptr != last) return NumberStatus::kNotANumber;
   if (!std::isfinite(out)) return NumberStatus::kNotFinite;
@@ -168,10 +233,12 @@ class Lexer {
 
 class Parser {
  public:
-  Parser(std::string_view text, const std::string& name) : lex_(text, name) {}
+  Parser(std::string_view text, const std::string& name)
+      : lex_(text, name), doing_(fmt::format("parsing '{}'", name)) {}
 
   Scene parse() {
     while (lex_.skip()) {
+      poll_stop();
       const char* at = lex_.position();
       const std::string_view kw = lex_.take_token();
       entity_ = kw;
@@ -205,6 +272,11 @@ class Parser {
   }
 
  private:
+  /// Polls the stop request every 4096 calls (entities and vertices).
+  void poll_stop() {
+    if ((++ticks_ & 4095u) == 0) throw_if_stopped(doing_);
+  }
+
   [[noreturn]] void fail_truncated(const std::string& expected) {
     lex_.fail_at(lex_.end(), fmt::format("file ends inside a '{}' entity (expected {})", entity_,
                                          expected));
@@ -281,11 +353,20 @@ class Parser {
     for (std::uint32_t i = 0; i < count; ++i) {
       // Field and truncation wording are only formatted on the error path.
       const std::uint32_t left = count - i;
+      poll_stop();
       try_vertex(patch, i, left);
     }
     if (is_degenerate_polygon(verts_.data(), count)) {
       ++scene_.dropped_degenerate;
       return;
+    }
+    // Ear clipping a concave polygon takes O(n^2) time: refused here, where
+    // the file location is known (database.h).
+    if (count > kMaxConcavePolygonVertices && !splits_in_linear_time(verts_.data(), count)) {
+      lex_.fail_at(at, fmt::format("{} has {} vertices and is not convex; a concave {} may have at most {} "
+                                   "vertices (triangulating one takes time quadratic in its vertices) unless it is "
+                                   "star-shaped from its last vertex: split it",
+                                   noun, n, noun, kMaxConcavePolygonVertices));
     }
     if (patch) {
       scene_.add_patch(verts_.data(), normals_.data(), count);
@@ -452,99 +533,15 @@ class Parser {
   }
 
   Lexer lex_;
+  const std::string doing_;     ///< "parsing '<name>'", for the stop request
+  std::uint32_t ticks_ = 0;     ///< poll_stop() calls
   Scene scene_;
   std::string_view entity_;     ///< keyword of the entity being parsed
   std::vector<Vec3> verts_;     ///< scratch: current polygon's vertices
   std::vector<Vec3> normals_;   ///< scratch: current patch's normals
 };
 
-// ---------------------------------------------------------------------------
-// File input
-// ---------------------------------------------------------------------------
-
 std::string errno_text(int err) { return std::strerror(err); }
-
-/// Reads a whole file into memory (throws "cannot open/read ...").
-std::string read_file_bytes(const std::string& path) {
-  std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) throw std::runtime_error(fmt::format("cannot open '{}': {}", path, errno_text(errno)));
-  std::string data;
-  std::error_code ec;
-  const auto size = std::filesystem::file_size(path, ec);
-  if (!ec) data.reserve(static_cast<std::size_t>(size));
-  char chunk[1 << 16];
-  for (;;) {
-    const std::size_t got = std::fread(chunk, 1, sizeof chunk, f);
-    data.append(chunk, got);
-    if (got < sizeof chunk) break;
-  }
-  const bool failed = std::ferror(f) != 0;
-  const int err = errno;
-  std::fclose(f);
-  if (failed) throw std::runtime_error(fmt::format("cannot read '{}': {}", path, errno_text(err)));
-  return data;
-}
-
-bool has_gzip_magic(std::string_view data) {
-  return data.size() >= 2 && static_cast<unsigned char>(data[0]) == 0x1f &&
-         static_cast<unsigned char>(data[1]) == 0x8b;
-}
-
-/// Inflates gzip data (one or more concatenated members) held in memory.
-std::string gunzip(std::string_view in, const std::string& path) {
-  std::string out;
-  // The gzip trailer holds the uncompressed size modulo 2^32: a good first
-  // guess. Deflate cannot expand more than 1032:1, which bounds the guess when
-  // the trailer is garbage (a truncated file).
-  if (in.size() >= 18) {
-    std::uint32_t isize = 0;
-    std::memcpy(&isize, in.data() + in.size() - 4, 4);  // little-endian hosts
-    const std::size_t bound = in.size() * 1032;
-    out.resize(std::clamp<std::size_t>(isize, in.size(), bound) + 1);
-  } else {
-    out.resize(1 << 16);
-  }
-  z_stream zs{};
-  if (inflateInit2(&zs, 15 + 16) != Z_OK) {
-    throw std::runtime_error(fmt::format("cannot decompress '{}': zlib init failed", path));
-  }
-  auto fail = [&](const char* why) {
-    const std::string msg =
-        fmt::format("cannot decompress '{}': {}", path, zs.msg ? zs.msg : why);
-    inflateEnd(&zs);
-    throw std::runtime_error(msg);
-  };
-  std::size_t in_pos = 0, out_pos = 0;
-  constexpr std::size_t kStep = std::size_t{1} << 30;  // zlib counts in uInt
-  for (;;) {
-    if (out_pos == out.size()) out.resize(out.size() * 2);
-    const std::size_t in_avail = std::min(in.size() - in_pos, kStep);
-    const std::size_t out_avail = std::min(out.size() - out_pos, kStep);
-    zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data() + in_pos));
-    zs.avail_in = static_cast<uInt>(in_avail);
-    zs.next_out = reinterpret_cast<Bytef*>(out.data() + out_pos);
-    zs.avail_out = static_cast<uInt>(out_avail);
-    const int rc = inflate(&zs, Z_NO_FLUSH);
-    in_pos += in_avail - zs.avail_in;
-    out_pos += out_avail - zs.avail_out;
-    if (rc == Z_STREAM_END) {
-      // Another member may follow (concatenated gzip files); trailing zeros
-      // or garbage after a complete member are ignored, as gzip does.
-      if (in_pos + 2 <= in.size() && has_gzip_magic(in.substr(in_pos))) {
-        inflateReset(&zs);
-        continue;
-      }
-      break;
-    }
-    if (rc == Z_BUF_ERROR && in_pos == in.size() && zs.avail_out != 0) {
-      fail("gzip data is truncated");
-    }
-    if (rc != Z_OK && rc != Z_BUF_ERROR) fail("corrupt gzip data");
-  }
-  inflateEnd(&zs);
-  out.resize(out_pos);
-  return out;
-}
 
 // ---------------------------------------------------------------------------
 // Writer
@@ -665,8 +662,7 @@ Scene parse_nff(std::string_view text, const std::string& name) {
 }
 
 Scene read_nff(const std::string& path) {
-  std::string data = read_file_bytes(path);
-  if (has_gzip_magic(data)) data = gunzip(data, path);
+  const std::string data = read_scene_text(path);
   return parse_nff(data, path);
 }
 

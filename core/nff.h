@@ -34,16 +34,24 @@ class ParseError : public std::runtime_error {
 };
 
 /// Reads an NFF scene from `path` (`.nff`, or gzip-compressed: detected by
-/// content, so `.nff.gz` works whatever its name). Zero-area polygons are
-/// dropped and counted in Scene::dropped_degenerate.
+/// content, so `.nff.gz` works whatever its name; a FIFO or a device is read
+/// too: scene_file.h, which also bounds the bytes read). Zero-area polygons
+/// are dropped and counted in Scene::dropped_degenerate.
+/// Numbers: `#` starts a comment only where a token would start (`1.#INF`
+/// is a non-finite number, an error); a decimal too small for float rounds
+/// to a denormal or to a signed zero, as IEEE 754 rounding does (1e-400 reads
+/// as 0); one too large for float is an error.
 /// Throws ParseError on malformed input (unknown keyword, missing or
-/// non-finite number, fewer than 3 vertices, truncated file, a view the
-/// camera cannot use: 'at' == 'from', 'up' parallel to the viewing
-/// direction, angle outside (0, 180), resolution outside 1..16384) and
-/// std::runtime_error ("cannot open ...") when the file cannot be read.
+/// non-finite number, fewer than 3 vertices, a concave polygon of more than
+/// kMaxConcavePolygonVertices vertices (database.h), truncated file, a view
+/// the camera cannot use: 'at' == 'from', 'up' parallel to the viewing
+/// direction, angle outside (0, 180), resolution outside 1..16384),
+/// std::runtime_error ("cannot open ...") when the file cannot be read or
+/// holds more than the memory limit, StopError when a stop is requested.
 Scene read_nff(const std::string& path);
 
-/// Parses NFF text held in memory; `name` is used in error locations.
+/// Parses NFF text held in memory; `name` is used in error locations. Polls
+/// the stop request every 4096 entities and vertices (StopError).
 Scene parse_nff(std::string_view text, const std::string& name = "<string>");
 
 /// Writes `scene` as NFF text, in the layout SPD 3.14 writes (`b`, `v` block,

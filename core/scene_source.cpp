@@ -14,8 +14,11 @@ bool is_scene_file(const std::string& spec) {
     return spec.size() >= suf.size() && spec.compare(spec.size() - suf.size(), suf.size(), suf) == 0;
   };
   std::error_code ec;
+  // Any existing file but a directory: a FIFO or a device is read as NFF too.
+  const auto st = std::filesystem::status(spec, ec);
   return ends_with(".nff") || ends_with(".nff.gz") || ends_with(".gz") ||
-         spec.find('/') != std::string::npos || std::filesystem::is_regular_file(spec, ec);
+         spec.find('/') != std::string::npos ||
+         (!ec && std::filesystem::exists(st) && !std::filesystem::is_directory(st));
 }
 
 Scene load_scene(const SceneSource& source) {

@@ -1,7 +1,8 @@
 // Where a scene comes from: an NFF file or a built-in SPD generator.
 //
 // Place in the data flow: the SCENE argument of every raynode subcommand ->
-// load_scene -> Scene. A spec naming an existing file, or ending in `.nff`
+// load_scene -> Scene. A spec naming an existing file that is not a
+// directory (a FIFO or a device too), containing a '/', or ending in `.nff`
 // or `.nff.gz`, is read as NFF; anything else is parsed as `name[:size]` of a
 // built-in generator (spd.h).
 #pragma once
@@ -21,8 +22,10 @@ struct SceneSource {
 bool is_scene_file(const std::string& spec);
 
 /// Loads the scene. Throws ParseError (malformed file, with file:line:col),
-/// std::runtime_error (unreadable file) or std::invalid_argument (unknown
-/// generator, bad size, bad tessellation).
+/// std::runtime_error (unreadable file, more than the memory limit:
+/// scene_file.h), std::invalid_argument (unknown generator, bad size, bad
+/// tessellation) or StopError (a stop was requested while reading, parsing
+/// or tessellating: core/stop.h).
 Scene load_scene(const SceneSource& source);
 
 }  // namespace raynode::core

@@ -26,6 +26,7 @@
 
 #include "core/spd.h"
 #include "core/spd_generators.h"
+#include "core/stop.h"
 
 namespace raynode::core {
 namespace {
@@ -117,6 +118,7 @@ void tessellate_sphere(Scene& out, std::uint32_t material, const Sphere& sphere,
   const int r = grid.r;
   for (int face = 0; face < 6; ++face) {
     for (int u = 0; u < r; ++u) {
+      if (stop_requested()) throw_if_stopped(fmt::format("tessellating the scene (-t {})", r));
       for (int v = 0; v < r; ++v) {
         const D3& p00 = grid.at(face, u, v);
         const D3& p01 = grid.at(face, u, v + 1);
@@ -208,7 +210,14 @@ void tessellate_scene(Scene& scene, int resolution) {
   out.normals.reserve(scene.normals.size() + 3 * new_patches);
 
   const CubeSphereGrid grid(resolution);
+  const std::string doing = fmt::format("tessellating the scene (-t {})", resolution);
+  std::size_t work = 0;  // shapes and triangles made since the last stop poll
   for (const Shape& s : scene.shapes) {
+    work += 1 + (s.kind == ShapeKind::kSphere ? 12 * r * r : s.kind == ShapeKind::kCone ? 8 * r : 0);
+    if (work >= 4096) {
+      work = 0;
+      throw_if_stopped(doing);
+    }
     switch (s.kind) {
       case ShapeKind::kPolygon:
       case ShapeKind::kPatch: {

@@ -9,6 +9,8 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include <unistd.h>
+
 #include "core/stop.h"
 #include "nodes/cpu_time.h"
 
@@ -79,6 +81,7 @@ Machine::Machine(const MachineParams& params) : params_(params) {
   if (params_.nodes < 1 || params_.nodes > kMaxNodes)
     throw std::invalid_argument(fmt::format("--nodes must be 1..{}, got {}", kMaxNodes, params_.nodes));
   if (params_.node_memory == 0) throw std::invalid_argument("--node-memory must be > 0");
+  check_nodes_fit_host(params_.nodes, params_.node_memory, host_physical_memory());
   if (params_.max_payload == 0) throw std::invalid_argument("message payload limit must be > 0");
   if (params_.mailbox_capacity == 0) params_.mailbox_capacity = 2 * params_.nodes + 32;
 }
@@ -384,8 +387,7 @@ const char* work_grant_name(WorkGrant g) {
 std::size_t parse_bytes(const std::string& text) {
   std::size_t i = 0;
   while (i < text.size() && std::isdigit(static_cast<unsigned char>(text[i]))) ++i;
-  if (i == 0 || i > 15) throw std::invalid_argument("'" + text + "' is not a byte size (e.g. 4MiB, 512KiB, 65536)");
-  const std::size_t value = std::stoull(text.substr(0, i));
+  if (i == 0) throw std::invalid_argument("'" + text + "' is not a byte size (e.g. 4MiB, 512KiB, 65536)");
   std::string unit = text.substr(i);
   for (char& ch : unit) ch = char(std::tolower(static_cast<unsigned char>(ch)));
   std::size_t mult = 0;
@@ -394,8 +396,41 @@ std::size_t parse_bytes(const std::string& text) {
   else if (unit == "m" || unit == "mib" || unit == "mb") mult = std::size_t(1) << 20;
   else if (unit == "g" || unit == "gib" || unit == "gb") mult = std::size_t(1) << 30;
   if (mult == 0) throw std::invalid_argument("'" + text + "' has an unknown unit (B, KiB, MiB, GiB)");
+  // Digit by digit, stopping before the value overflows (any number of digits).
+  std::uint64_t value = 0;
+  bool overflow = false;
+  for (std::size_t k = 0; k < i; ++k) {
+    const unsigned d = unsigned(text[k] - '0');
+    if (value > (UINT64_MAX - d) / 10) {
+      overflow = true;
+      break;
+    }
+    value = value * 10 + d;
+  }
+  if (!overflow && value > kMaxByteSize / mult) overflow = true;
+  if (overflow)
+    throw std::invalid_argument(fmt::format("byte size '{}' is too large: at most {} GiB ({} B)", text,
+                                            kMaxByteSize >> 30, kMaxByteSize));
   if (value == 0) throw std::invalid_argument("byte size '" + text + "' must be > 0");
-  return value * mult;
+  return std::size_t(value) * mult;
+}
+
+std::size_t host_physical_memory() {
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
+  if (pages <= 0 || page <= 0) return 0;
+  return std::size_t(pages) * std::size_t(page);
+}
+
+void check_nodes_fit_host(std::uint32_t nodes, std::size_t node_memory, std::size_t host_bytes) {
+  if (host_bytes == 0) return;  // unknown: nothing to check against
+  const unsigned __int128 total = (unsigned __int128)nodes * node_memory;
+  if (total <= host_bytes) return;
+  const double total_gib = double(total) / double(std::size_t(1) << 30);
+  throw std::invalid_argument(fmt::format(
+      "--nodes {} x --node-memory {} = {:.6g} GiB, more than this host's {} of physical memory: a node's budget "
+      "must be memory the host has, or the host runs out before any node's arena refuses; use fewer nodes or "
+      "less --node-memory",
+      nodes, format_bytes(node_memory), total_gib, format_bytes(host_bytes)));
 }
 
 }  // namespace raynode::nodes

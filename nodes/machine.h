@@ -157,7 +157,8 @@ class Machine {
   using Main = std::function<void(NodeContext&)>;
 
   /// Validates params: throws std::invalid_argument for 0 or too many nodes,
-  /// a zero memory budget or payload limit.
+  /// a zero memory budget or payload limit, or nodes x node memory beyond
+  /// the host's physical memory (check_nodes_fit_host). Allocates nothing.
   explicit Machine(const MachineParams& params);
 
   const MachineParams& params() const { return params_; }
@@ -185,8 +186,25 @@ WorkGrant parse_work_grant(const std::string& text);
 /// "item", "nearest" or "half".
 const char* work_grant_name(WorkGrant g);
 
+/// The largest byte size parse_bytes accepts: 2^62 B (4 EiB), far above any
+/// host, so that sizes and their sums stay clear of size_t overflow.
+inline constexpr std::size_t kMaxByteSize = std::size_t(1) << 62;
+
 /// Parses a byte size: "4MiB", "512KiB", "1GiB", "4M", "1048576" (bytes).
-/// Throws std::invalid_argument with the text on a malformed or zero size.
+/// Throws std::invalid_argument with the text on a malformed or zero size,
+/// and naming kMaxByteSize on one above it (never wraps).
 std::size_t parse_bytes(const std::string& text);
+
+/// The host's physical memory in bytes (sysconf _SC_PHYS_PAGES x page
+/// size), or 0 when unknown.
+std::size_t host_physical_memory();
+
+/// Throws std::invalid_argument, naming the node count, the node memory,
+/// their product and the host's memory, when nodes x node_memory (bytes)
+/// exceeds host_bytes (0 = unknown: no check). Arenas charge what the nodes
+/// allocate as they go and reserve nothing up front, so their budgets are
+/// limits rather than allocations: budgets summing beyond the host's memory
+/// would let the nodes together exhaust the host before any arena refuses.
+void check_nodes_fit_host(std::uint32_t nodes, std::size_t node_memory, std::size_t host_bytes);
 
 }  // namespace raynode::nodes

@@ -264,7 +264,7 @@ TEST_CASE("nff: comments run to the end of the line, anywhere between tokens") {
       "# header comment\n"
       "b 0.1 0.2 0.3 # trailing comment\n"
       "s 1 # inside an entity\n"
-      "  2 3 4#glued to a number\n"
+      "  2 3 4\t#after a tab\n"
       "   # indented comment line\n"
       "p 3 0 0 0 1 0 0 0 1 0\n"
       "# last line has no newline");
@@ -404,8 +404,10 @@ TEST_CASE("nff: nan, inf and float overflow are rejected as non-finite") {
   check_error("s 1e39 0 0 1\n", 1, 3, "expected a finite number for sphere centre, found '1e39'");
   check_error("l 0 0 0 infinity 1 1\n", 1, 9,
               "expected a finite number for light colour, found 'infinity'");
-  // Underflow is not an error: it reads as a tiny or zero float.
+  // Underflow is not an error: it rounds to a tiny or zero float, however
+  // small (load_limits_test.cpp).
   CHECK(parse_nff("s 0 0 0 1e-50").spheres.at(0).radius == 0.0f);
+  CHECK(parse_nff("s 0 0 0 1e-400").spheres.at(0).radius == 0.0f);
 }
 
 TEST_CASE("nff: polygon with fewer than 3 vertices is reported at its count") {

@@ -337,3 +337,45 @@ TEST_CASE("machine: under scheduled mail a sleeping node without a permit does n
     CHECK(peer2 == (scheduled ? 0 : 1));
   }
 }
+
+TEST_CASE("machine: a byte size that does not fit 64 bits is refused with the value and the maximum, never wrapped") {
+  // 17179869185 GiB = 2^64 + 2^30 B wrapped to 1 GiB before the check.
+  try {
+    parse_bytes("17179869185GiB");
+    FAIL("17179869185GiB was accepted");
+  } catch (const std::invalid_argument& e) {
+    CHECK(std::string(e.what()) ==
+          "byte size '17179869185GiB' is too large: at most 4294967296 GiB (4611686018427387904 B)");
+  }
+  CHECK_THROWS_AS(parse_bytes("99999999999999999999999999"), std::invalid_argument);  // overflows the digits
+  CHECK_THROWS_AS(parse_bytes("4294967297GiB"), std::invalid_argument);              // just above 2^62
+  CHECK(parse_bytes("4294967296GiB") == kMaxByteSize);                                // the maximum itself
+  CHECK(parse_bytes("1234567890123456") == 1234567890123456u);  // 16 digits, once refused as malformed
+  CHECK(parse_bytes("0004KiB") == 4096u);
+}
+
+TEST_CASE("machine: nodes x node memory beyond the host's memory is refused before anything is allocated") {
+  // The rule itself, with the host's memory given.
+  CHECK_NOTHROW(check_nodes_fit_host(64, 16 * kMiB, std::size_t(1) << 30));  // exactly the host: fits
+  try {
+    check_nodes_fit_host(256, std::size_t(64) << 30, std::size_t(23) << 30);
+    FAIL("256 x 64 GiB on a 23 GiB host was accepted");
+  } catch (const std::invalid_argument& e) {
+    CHECK(std::string(e.what()).rfind("--nodes 256 x --node-memory 64 GiB = 16384 GiB, more than this host's "
+                                      "23 GiB of physical memory",
+                                      0) == 0);
+  }
+  CHECK_THROWS_AS(check_nodes_fit_host(65, 16 * kMiB, std::size_t(1) << 30), std::invalid_argument);
+  // The product does not wrap: 4096 x 4 EiB is far above any host.
+  CHECK_THROWS_AS(check_nodes_fit_host(4096, kMaxByteSize, std::size_t(1) << 40), std::invalid_argument);
+  CHECK_NOTHROW(check_nodes_fit_host(4096, kMaxByteSize, 0));  // host memory unknown: no check
+  // Machine applies it with this host's memory: 4096 nodes of 4 EiB never fit.
+  REQUIRE(host_physical_memory() > 0);
+  MachineParams p;
+  p.nodes = 4096;
+  p.node_memory = kMaxByteSize;
+  CHECK_THROWS_WITH_AS(Machine{p}, doctest::Contains("of physical memory"), std::invalid_argument);
+  p.nodes = 64;
+  p.node_memory = 16 * kMiB;  // 1 GiB in all: a sane run still starts
+  CHECK_NOTHROW(Machine{p});
+}
