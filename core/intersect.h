@@ -81,20 +81,75 @@ inline bool triangle_is_degenerate(const Vec3& v0, const Vec3& v1, const Vec3& v
   return !(area2 > 1e-7 * longest2);
 }
 
+/// The ray parameter where the ray's line crosses the triangle's plane,
+/// t = n.(v0 - o) / n.d with n = (v1 - v0) x (v2 - v0), all in double
+/// (the float differences are exact there, the products nearly so), and
+/// a bound on its error: `t` and `err` in units of the ray parameter.
+/// False when the ray is parallel to the plane. The fallback of
+/// finish_watertight where the float t is not good enough, and the source
+/// of spawn.h's ray-based hit point.
+inline bool triangle_plane_t(const Ray& ray, const Vec3& v0, const Vec3& v1, const Vec3& v2, double& t,
+                             double& err) {
+  double e1[3], e2[3], q[3], d[3];
+  for (int i = 0; i < 3; ++i) {
+    e1[i] = double(v1[i]) - v0[i];
+    e2[i] = double(v2[i]) - v0[i];
+    q[i] = double(v0[i]) - ray.origin[i];
+    d[i] = ray.direction[i];
+  }
+  const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+  const double nd = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+  if (nd == 0.0 || !std::isfinite(nd)) return false;
+  const double nq = n[0] * q[0] + n[1] * q[1] + n[2] * q[2];
+  t = nq / nd;
+  const double mag_q = std::fabs(n[0] * q[0]) + std::fabs(n[1] * q[1]) + std::fabs(n[2] * q[2]);
+  const double mag_d = std::fabs(n[0] * d[0]) + std::fabs(n[1] * d[1]) + std::fabs(n[2] * d[2]);
+  err = 0x1p-48 * (mag_q + std::fabs(t) * mag_d) / std::fabs(nd);
+  return true;
+}
+
 namespace detail {
+
+/// Bound on the rounding error of the watertight test's t (in units of the
+/// ray parameter), from the values the test computed it from (see
+/// finish_watertight). t = sum e_i z_i / sum e_i, so an error d_i in an
+/// edge function moves t by sum d_i (z_i - t) / det: by the spread of the
+/// vertices' z about t, not by their magnitude (pbrt-v4's bound, PBR 4th
+/// ed. §6.8.4, takes the magnitude and rejects every hit on a 1e8 triangle
+/// seen from 1e-2 away). The edge functions' error bound is pbrt-v4's
+/// (gamma(5) on the sheared coordinates, the shear taken on the unscaled z
+/// so that it holds for directions of any length); the z values and the
+/// sums add gamma(7) of their magnitudes; the whole is doubled for the
+/// first-order terms left out. Relative to the operands throughout: the
+/// test answers alike at any scale and position.
+[[gnu::always_inline]] inline float triangle_t_error(float t, float u, float v, float e, float inv_det,
+                                                     const float sx3[3], const float sy3[3], const float rz3[3],
+                                                     float az, float bz, float cz) {
+  auto max3 = [](float a, float b, float c) { return std::max(std::fabs(a), std::max(std::fabs(b), std::fabs(c))); };
+  constexpr float u1 = 0x1p-24f;
+  constexpr float g2 = 2 * u1 / (1 - 2 * u1), g5 = 5 * u1 / (1 - 5 * u1), g7 = 7 * u1 / (1 - 7 * u1);
+  const float max_zr = max3(rz3[0], rz3[1], rz3[2]);
+  const float max_xt = max3(sx3[0], sx3[1], sx3[2]), max_yt = max3(sy3[0], sy3[1], sy3[2]);
+  const float delta_x = g5 * (max_xt + max_zr), delta_y = g5 * (max_yt + max_zr);
+  const float delta_e = 2 * (g2 * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+  const float spread = std::fabs(az - t) + std::fabs(bz - t) + std::fabs(cz - t);
+  const float sum_e = std::fabs(u) + std::fabs(v) + std::fabs(e);
+  return 2 * (delta_e * spread + g7 * (max3(az, bz, cz) + std::fabs(t)) * sum_e) * std::fabs(inv_det);
+}
 
 /// The watertight test's last steps (Woop, Benthin, Wald 2013), after its
 /// sign test, shared by every form of the test so that they round alike:
 /// from the edge functions u, v, e, the sheared x and y of the three
 /// vertices relative to the origin (`sx3`, `sy3`), their z before (`rz3`,
 /// world units) and after the scaling by 1/d_z (az, bz, cz), the hit's t,
-/// accepted when ray.tmin < t < tmax and t exceeds its own rounding-error
-/// bound (a hit at t = 1e-7 from an origin lying in the triangle's plane is
-/// rounding noise, not a hit: pbrt-v4's conservative t > 0 test, PBR 4th ed.
-/// §6.8.4, with the shear's error taken on the unscaled z so that it holds
-/// for directions of any length), then the degeneracy check, then the
-/// barycentrics. The error bound is relative to the operands' magnitudes:
-/// the test answers alike at any scale.
+/// accepted when ray.tmin < t < tmax, then the degeneracy check, then the
+/// barycentrics. Where the float t is not clearly larger than its own
+/// rounding-error bound (triangle_t_error: an origin lying in or next to
+/// the triangle's plane, a grazing ray, a triangle far larger than the
+/// distance to the hit), t is recomputed in double from the plane
+/// (triangle_plane_t) and the hit counts only if that t exceeds its own,
+/// far smaller, bound: an eye in a polygon's plane does not see it at
+/// t = 1e-7, and a 1e8 ground seen from 1e-2 away is hit where it is.
 [[gnu::always_inline]] inline bool finish_watertight(const Ray& ray, float u, float v, float e, const float sx3[3],
                                                      const float sy3[3], const float rz3[3], float az, float bz,
                                                      float cz, float tmax, const Vec3& v0, const Vec3& v1,
@@ -103,21 +158,13 @@ namespace detail {
   if (det == 0.0f) return false;
   const float t_scaled = u * az + v * bz + e * cz;
   const float inv_det = 1.0f / det;
-  const float t = t_scaled * inv_det;
-  if (!(t > ray.tmin && t < tmax)) return false;
-  {
-    auto max3 = [](float a, float b, float c) { return std::max(std::fabs(a), std::max(std::fabs(b), std::fabs(c))); };
-    constexpr float u1 = 0x1p-24f;
-    constexpr float g2 = 2 * u1 / (1 - 2 * u1), g3 = 3 * u1 / (1 - 3 * u1), g5 = 5 * u1 / (1 - 5 * u1);
-    const float max_zt = max3(az, bz, cz);
-    const float max_zr = max3(rz3[0], rz3[1], rz3[2]);
-    const float max_xt = max3(sx3[0], sx3[1], sx3[2]), max_yt = max3(sy3[0], sy3[1], sy3[2]);
-    const float delta_x = g5 * (max_xt + max_zr), delta_y = g5 * (max_yt + max_zr);
-    const float delta_e = 2 * (g2 * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
-    const float max_e = max3(u, v, e);
-    const float delta_t = 3 * (g3 * max_e * max_zt + delta_e * max_zt + delta_x * max_e) * std::fabs(inv_det);
-    if (!(t > delta_t)) return false;
+  float t = t_scaled * inv_det;
+  if (!(triangle_t_error(t, u, v, e, inv_det, sx3, sy3, rz3, az, bz, cz) < 0.5f * std::fabs(t))) [[unlikely]] {
+    double td = 0, err = 0;
+    if (!triangle_plane_t(ray, v0, v1, v2, td, err) || !(td > err)) return false;
+    t = static_cast<float>(td);
   }
+  if (!(t > ray.tmin && t < tmax)) return false;
   if (triangle_is_degenerate(v0, v1, v2)) [[unlikely]] return false;
   hit.t = t;
   hit.u = v * inv_det;  // weight of v1

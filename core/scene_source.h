@@ -7,6 +7,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 
 #include "core/scene.h"
 #include "core/scene_transform.h"
@@ -14,6 +15,10 @@
 namespace raynode::core {
 
 struct SceneSource {
+  SceneSource() = default;
+  SceneSource(std::string spec_, int tessellate_ = 0, const SceneTransform& transform_ = {})
+      : spec(std::move(spec_)), tessellate(tessellate_), transform(transform_) {}
+
   std::string spec;    ///< path or name[:size]
   int tessellate = 0;  ///< --tessellate R (0 = keep curved primitives)
   SceneTransform transform;  ///< --scale / --translate, applied after tessellation

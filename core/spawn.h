@@ -19,6 +19,7 @@
 #include <cstdint>
 
 #include "core/database.h"
+#include "core/intersect.h"
 #include "core/math.h"
 #include "core/traverse.h"
 
@@ -49,10 +50,30 @@ struct HitPoint {
   Vec3 error;
 };
 
+/// The point where `ray` crosses the plane of the triangle `prim`, o + t d
+/// with t from triangle_plane_t, computed in double and rounded once, and
+/// its error bound: that rounding plus |d| times t's bound.
+inline HitPoint ray_hit_point(const Primitive& prim, const Ray& ray) {
+  HitPoint h;
+  double t = 0, err = 0;
+  if (!triangle_plane_t(ray, prim.vertex(0), prim.vertex(1), prim.vertex(2), t, err)) {
+    h.error = {kInfinity, kInfinity, kInfinity};
+    return h;
+  }
+  for (int i = 0; i < 3; ++i) {
+    const double o = ray.origin[i], td = t * ray.direction[i];
+    h.p[i] = float(o + td);
+    h.error[i] = float(std::fabs(double(h.p[i])) * 0x1p-23 + std::fabs(double(ray.direction[i])) * err +
+                       (std::fabs(o) + std::fabs(td)) * 0x1p-50);
+  }
+  return h;
+}
+
 /// The point of `hit` (a hit of `ray` on `prim`) and its error bound.
 /// Triangles: from the barycentrics, p = b0 v0 + b1 v1 + b2 v2, error
 /// gamma(7) sum |b_i v_i| (pbrt-v4, Triangle::InteractionFromIntersection):
-/// it depends on the vertices' magnitudes, not on the ray's length.
+/// it depends on the vertices' magnitudes, not on the ray's length; or, when
+/// its bound is smaller, the ray's point (ray_hit_point).
 /// Spheres and cones: ray.at(t) reprojected onto the surface in double
 /// precision (pbrt-v4 reprojects spheres and cylinders the same way), so
 /// only the final rounding to float remains: gamma(2) |p| plus the double
@@ -66,6 +87,11 @@ inline HitPoint hit_point(const Primitive& prim, const Ray& ray, const Hit& hit)
       const Vec3 a = prim.vertex(0) * b0, b = prim.vertex(1) * b1, c = prim.vertex(2) * b2;
       h.p = a + b + c;
       h.error = (abs(a) + abs(b) + abs(c)) * gamma_bound(7);
+      // On a triangle far larger than the distance to the hit (a 1e8 ground
+      // seen from 1e-2 away) the barycentric point errs by the vertices'
+      // float spacing; the ray's point o + t d is then the better one.
+      const HitPoint r = ray_hit_point(prim, ray);
+      if (r.error.x + r.error.y + r.error.z < h.error.x + h.error.y + h.error.z) return r;
       return h;
     }
     case PrimitiveKind::kSphere: {

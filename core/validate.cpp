@@ -95,6 +95,14 @@ bool reference_triangle(const Ray& ray, const Primitive& p, double tmax, double 
   if (std::min({u / det, v / det, w / det}) < margin) return false;
   const double t = (u * pz[0] + v * pz[1] + w * pz[2]) / det;
   if (!(t > ray.tmin && t < tmax)) return false;
+  if (margin > 0) {
+    // The strict answer also leaves out a hit within the rounding of the
+    // plane crossing in double (triangle_plane_t's bound, which the float
+    // test applies where its own t is not good enough): an origin spawned
+    // within rounding distance of a surface does not hit it.
+    double tp = 0, err = 0;
+    if (!triangle_plane_t(ray, p.vertex(0), p.vertex(1), p.vertex(2), tp, err) || !(tp > err)) return false;
+  }
   t_out = t;
   return true;
 }

@@ -29,7 +29,10 @@
 // either way in float) plus the barycentric error that the float test's
 // rounding of the ray-space vertex coordinates can cause (it grows with the
 // distance from the ray origin over the triangle's size: a small triangle
-// seen from far away); when the grid's hit distance lies between the two
+// seen from far away); the shrunk answer also leaves out hits within the
+// rounding of the plane crossing (an origin spawned within rounding
+// distance of a surface: the grid rejects those, as it must; Embree may
+// not); when the grid's hit distance lies between the two
 // referee answers it is counted as an oracle error (Embree's
 // robust mode inflates triangles a little; its float sphere test loses
 // digits on small, distant spheres), not as a mismatch.

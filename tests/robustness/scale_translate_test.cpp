@@ -155,8 +155,8 @@ struct Case {
 
 std::vector<Case> suite_scenes() {
   std::vector<Case> cases;
-  for (const char* name : {"teapot", "mount", "rings", "tetra", "balls"})
-    cases.push_back({name, core::make_spd_scene(core::SpdParams{name, 1, 0})});
+  for (const char* name : {"teapot", "mount", "rings", "tetra", "balls"})  // the smallest size of each
+    cases.push_back({name, core::make_spd_scene(core::SpdParams{name, std::string(name) == "teapot" ? 2 : 1, 0})});
   cases.push_back({"torus mesh", torus_mesh_scene()});
   return cases;
 }
@@ -170,7 +170,7 @@ void check_transformed(const core::Scene& scene, const core::SceneTransform& t, 
   const core::Database db = core::make_database(moved);
   const core::Grid grid = core::build_grid(db);
   for (const auto& [mode, image] : render_all_modes(db, grid)) {
-    CAPTURE(mode);
+    CAPTURE(std::string(mode));
     CHECK(differing_fraction(image, reference) <= bound);
   }
   CHECK(validate_mismatches(db, grid) == 0);
@@ -209,5 +209,148 @@ TEST_CASE("position invariance: every SPD scene and a mesh moved by 10^k render 
       t.translate = {shift, -0.7 * shift, 0.4 * shift};
       check_transformed(c.scene, t, reference, kMovedBound);
     }
+  }
+}
+
+namespace {
+
+/// Index (NFF shape, as the primitive AOV stores it) seen at each pixel.
+std::vector<int> shapes_seen(const core::Image& primitive) {
+  std::vector<int> out;
+  for (float v : primitive.pixels) out.push_back(int(v));
+  return out;
+}
+
+core::Scene open_scene(const core::Vec3& from, const core::Vec3& at, const core::Vec3& up, float angle) {
+  core::Scene s;
+  s.view.from = from;
+  s.view.at = at;
+  s.view.up = up;
+  s.view.angle = angle;
+  s.has_view = true;
+  s.background = {0.2f, 0.3f, 0.5f};
+  return s;
+}
+
+}  // namespace
+
+TEST_CASE("eye in a polygon's plane: no eye ray hits the polygon, in any mode, and the grid agrees with Embree") {
+  // Before: the grid accepted self-hits at t ~ 1e-7: speckle over the image.
+  core::Scene s = open_scene({0.5f, 0.25f, 0.0f}, {0.0f, 5.0f, 0.5f}, {0, 0, 1}, 60.0f);
+  s.lights.push_back({{1.0f, 2.0f, 4.0f}});
+  s.materials.push_back({{0.8f, 0.8f, 0.8f}, 0.9f, 0.0f, 0.0f, 0.0f, 1.0f});
+  const core::Vec3 floor[4] = {{-4, -4, 0}, {4, -4, 0}, {4, 8, 0}, {-4, 8, 0}};
+  s.add_polygon(floor, 4);  // shape 0: the eye stands on it
+  s.add_sphere({{0.0f, 5.0f, 0.7f}, 0.6f});
+  for (double k : {1e-4, 1.0, 1e4}) {
+    CAPTURE(k);
+    core::Scene scaled = s;
+    core::SceneTransform t;
+    t.scale = k;
+    core::transform_scene(scaled, t);
+    const core::Database db = core::make_database(scaled);
+    const core::Grid grid = core::build_grid(db);
+    core::RenderParams rp = render_params();
+    const core::RenderResult r = core::render(db, grid, rp);
+    const std::vector<int> seen = shapes_seen(r.primitive);
+    CHECK(std::count(seen.begin(), seen.end(), 0) == 0);   // the floor, at t = 0 for every ray
+    CHECK(std::count(seen.begin(), seen.end(), 1) > 20);   // the sphere
+    for (const auto& [mode, image] : render_all_modes(db, grid)) {
+      CAPTURE(std::string(mode));
+      CHECK(differing_fraction(image, r.color) == 0.0);
+    }
+    CHECK(validate_mismatches(db, grid) == 0);
+  }
+}
+
+TEST_CASE("coincident triangles: a doubled polygon renders exactly as a single one, at any scale") {
+  // The twin lies on the same plane: a shadow ray spawned from one must not
+  // be blocked by the other (both reject it by the same error bound).
+  core::Scene single = open_scene({1.0f, -3.0f, 2.5f}, {0.0f, 0.0f, 0.3f}, {0, 0, 1}, 50.0f);
+  single.lights.push_back({{2.0f, -1.0f, 3.0f}});
+  single.materials.push_back({{0.7f, 0.8f, 0.6f}, 0.8f, 0.2f, 20.0f, 0.0f, 1.0f});
+  const core::Vec3 quad[4] = {{-2, -2, 0}, {2, -2.3f, 0.2f}, {2.2f, 2, 0.4f}, {-2, 2.1f, 0.1f}};
+  single.add_polygon(quad, 4);
+  single.add_sphere({{0.0f, 0.0f, 0.8f}, 0.5f});
+  core::Scene doubled = single;
+  doubled.add_polygon(quad, 4);
+  for (double k : {1e-5, 1.0, 1e5}) {
+    CAPTURE(k);
+    core::SceneTransform t;
+    t.scale = k;
+    core::Scene a = single, b = doubled;
+    core::transform_scene(a, t);
+    core::transform_scene(b, t);
+    const core::Database da = core::make_database(a), dbb = core::make_database(b);
+    const core::Grid ga = core::build_grid(da), gb = core::build_grid(dbb);
+    const core::Image ia = core::render(da, ga, render_params()).color;
+    for (const auto& [mode, image] : render_all_modes(dbb, gb)) {
+      CAPTURE(std::string(mode));
+      CHECK(differing_fraction(image, ia) == 0.0);
+    }
+    CHECK(validate_mismatches(dbb, gb) == 0);
+  }
+}
+
+TEST_CASE("a 1e8 ground triangle beside 1e-3 triangles renders as with a small ground") {
+  // Small tetrahedra standing on a ground seen from 1e-2 away: the ground's
+  // size must neither hide it (before: eye rays whose float t was rounding
+  // noise missed it), shadow the tetrahedra nor misplace the ground's
+  // shading points (a barycentric point errs by the vertices' spacing, 8).
+  auto scene = [](float ground) {
+    // Looking down steeply: the small ground fills the view as the huge one does.
+    core::Scene s = open_scene({0.003f, -0.004f, 0.008f}, {0.0f, 0.0f, 0.0003f}, {0, 0, 1}, 50.0f);
+    s.lights.push_back({{0.004f, -0.002f, 0.01f}});
+    s.materials.push_back({{0.8f, 0.8f, 0.8f}, 0.9f, 0.0f, 0.0f, 0.0f, 1.0f});
+    const core::Vec3 g[3] = {{-ground, -ground, 0}, {ground, -ground, 0}, {0, ground, 0}};
+    s.add_polygon(g, 3);
+    s.materials.push_back({{0.9f, 0.4f, 0.2f}, 0.7f, 0.3f, 30.0f, 0.0f, 1.0f});
+    for (int i = 0; i < 3; ++i) {
+      const float x = -0.0015f + 0.0015f * float(i), y = 0.001f * float(i % 2);
+      const core::Vec3 a{x, y, 0.0f}, b{x + 0.001f, y, 0.0f}, c{x + 0.0005f, y + 0.0009f, 0.0f},
+          top{x + 0.0005f, y + 0.0003f, 0.0008f};
+      const core::Vec3 f0[3] = {a, b, top}, f1[3] = {b, c, top}, f2[3] = {c, a, top};
+      s.add_polygon(f0, 3);
+      s.add_polygon(f1, 3);
+      s.add_polygon(f2, 3);
+    }
+    return s;
+  };
+  const core::Database small = core::make_database(scene(0.05f));
+  const core::Image reference = core::render(small, core::build_grid(small), render_params()).color;
+  const core::Database huge = core::make_database(scene(1e8f));
+  const core::Grid grid = core::build_grid(huge);
+  for (const auto& [mode, image] : render_all_modes(huge, grid)) {
+    CAPTURE(std::string(mode));
+    CHECK(differing_fraction(image, reference) <= kScaledBound);
+  }
+  CHECK(validate_mismatches(huge, grid) == 0);
+}
+
+TEST_CASE("eye inside a closed sphere: every eye ray sees its lit inside, at radius 1e-6 .. 1e6") {
+  for (double k : {1e-6, 1.0, 1e6}) {
+    CAPTURE(k);
+    core::Scene s = open_scene({0.2f, -0.1f, 0.1f}, {1.0f, 0.5f, 0.0f}, {0, 0, 1}, 70.0f);
+    s.lights.push_back({{-0.3f, 0.2f, 0.4f}});  // inside too
+    s.materials.push_back({{0.9f, 0.7f, 0.5f}, 0.8f, 0.0f, 0.0f, 0.0f, 1.0f});
+    s.add_sphere({{0.0f, 0.0f, 0.0f}, 1.0f});
+    core::SceneTransform t;
+    t.scale = k;
+    core::transform_scene(s, t);
+    const core::Database db = core::make_database(s);
+    const core::Grid grid = core::build_grid(db);
+    const core::RenderResult r = core::render(db, grid, render_params());
+    const float ambient = 0.9f * 0.8f * 0.5f;  // red channel: colour * Kd * ambient intensity (one light)
+    int lit = 0;
+    for (std::size_t p = 0; p < r.primitive.pixels.size(); ++p) {
+      CHECK(r.primitive.pixels[p] == 0.0f);
+      lit += r.color.pixels[3 * p] > ambient + 0.05f;
+    }
+    CHECK(lit == int(r.primitive.pixels.size()));  // no self-shadowing anywhere
+    for (const auto& [mode, image] : render_all_modes(db, grid)) {
+      CAPTURE(std::string(mode));
+      CHECK(differing_fraction(image, r.color) == 0.0);
+    }
+    CHECK(validate_mismatches(db, grid) == 0);
   }
 }
