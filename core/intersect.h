@@ -81,6 +81,11 @@ inline bool triangle_is_degenerate(const Vec3& v0, const Vec3& v1, const Vec3& v
   return !(area2 > 1e-7 * longest2);
 }
 
+/// Distance from a ray's origin, relative to its largest coordinate (64
+/// float spacings), within which a triangle hit whose float t is rounding
+/// noise counts as the surface the ray starts on (finish_watertight).
+inline constexpr float kNearOrigin = 0x1p-17f;
+
 /// The ray parameter where the ray's line crosses the triangle's plane,
 /// t = n.(v0 - o) / n.d with n = (v1 - v0) x (v2 - v0), all in double
 /// (the float differences are exact there, the products nearly so), and
@@ -146,10 +151,12 @@ namespace detail {
 /// barycentrics. Where the float t is not clearly larger than its own
 /// rounding-error bound (triangle_t_error: an origin lying in or next to
 /// the triangle's plane, a grazing ray, a triangle far larger than the
-/// distance to the hit), t is recomputed in double from the plane
-/// (triangle_plane_t) and the hit counts only if that t exceeds its own,
-/// far smaller, bound: an eye in a polygon's plane does not see it at
-/// t = 1e-7, and a 1e8 ground seen from 1e-2 away is hit where it is.
+/// distance to the hit), the hit is refused when that bound reaches no
+/// further than kNearOrigin of the origin's magnitude (pbrt-v4's rule: the
+/// surface the ray was spawned from), else t is recomputed in double from
+/// the plane (triangle_plane_t) and the hit counts only if that t exceeds
+/// its own, far smaller, bound: an eye in a polygon's plane does not see it
+/// at t = 1e-7, and a 1e8 ground seen from 1e-2 away is hit where it is.
 [[gnu::always_inline]] inline bool finish_watertight(const Ray& ray, float u, float v, float e, const float sx3[3],
                                                      const float sy3[3], const float rz3[3], float az, float bz,
                                                      float cz, float tmax, const Vec3& v0, const Vec3& v1,
@@ -159,7 +166,13 @@ namespace detail {
   const float t_scaled = u * az + v * bz + e * cz;
   const float inv_det = 1.0f / det;
   float t = t_scaled * inv_det;
-  if (!(triangle_t_error(t, u, v, e, inv_det, sx3, sy3, rz3, az, bz, cz) < 0.5f * std::fabs(t))) [[unlikely]] {
+  const float t_err = triangle_t_error(t, u, v, e, inv_det, sx3, sy3, rz3, az, bz, cz);
+  if (!(t_err < 0.5f * std::fabs(t))) [[unlikely]] {
+    // Within kNearOrigin float spacings of the origin: a surface the ray
+    // was spawned from (or one within rounding of it), not a hit. Beyond
+    // that the float t is just not good enough (a huge triangle): ask the
+    // plane in double.
+    if (t_err * max_component(abs(ray.direction)) <= kNearOrigin * max_component(abs(ray.origin))) return false;
     double td = 0, err = 0;
     if (!triangle_plane_t(ray, v0, v1, v2, td, err) || !(td > err)) return false;
     t = static_cast<float>(td);

@@ -102,6 +102,10 @@ bool reference_triangle(const Ray& ray, const Primitive& p, double tmax, double 
     // within rounding distance of a surface does not hit it.
     double tp = 0, err = 0;
     if (!triangle_plane_t(ray, p.vertex(0), p.vertex(1), p.vertex(2), tp, err) || !(tp > err)) return false;
+    // Nor one within kNearOrigin float spacings of the origin, which the
+    // float test may refuse as the surface the ray starts on.
+    const double dmax = max_component(abs(ray.direction)), omax = max_component(abs(ray.origin));
+    if (tp * dmax <= 2.0 * double(kNearOrigin) * omax) return false;
   }
   t_out = t;
   return true;
