@@ -16,6 +16,7 @@
 #include "core/grid.h"
 #include "core/intersect.h"
 #include "core/render.h"
+#include "core/spawn.h"
 #include "core/traverse.h"
 
 namespace raynode::apps {
@@ -50,10 +51,11 @@ RaySet make_rays(const core::Database& db, const core::Grid& grid, int w, int h)
       rs.closest.push_back(r);
       core::Hit hit;
       if (!core::intersect_closest(dv, r, hit, scratch)) continue;
-      const core::Vec3 p = r.at(hit.t);
-      core::Vec3 n = core::normalize(core::geometric_normal(db.primitives[hit.primitive], p));
+      const core::Primitive& prim = db.primitives[hit.primitive];
+      const core::HitPoint hp = core::hit_point(prim, r, hit);  // spawned as the tracer spawns them
+      core::Vec3 n = core::geometric_normal(prim, hp.p);
       if (core::dot(n, r.direction) > 0) n = -n;
-      const core::Vec3 o = p + n * (1e-4f * (1.0f + core::max_component(core::abs(p))));
+      const core::Vec3 o = core::offset_ray_origin(hp, n);
       for (const core::Light& l : db.lights) {
         const core::Vec3 to = l.position - o;
         rs.shadow.push_back(core::Ray{o, to, 0.0f, 1.0f});

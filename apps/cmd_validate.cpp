@@ -66,6 +66,8 @@ void run_validate(const ValidateOptions& o) {
     j["primary"] = counts_json(r.primary);
     j["random"] = counts_json(r.random);
     j["secondary"] = counts_json(r.secondary);
+    j["reflected"] = counts_json(r.reflected);
+    j["scattered"] = counts_json(r.scattered);
     j["total"] = counts_json(r.total);
     j["rays"] = r.total.rays;
     j["hits"] = r.total.grid_hits;
@@ -91,6 +93,8 @@ void run_validate(const ValidateOptions& o) {
     };
     row("primary", r.primary);
     row("random", r.random);
+    row("reflected", r.reflected);
+    row("scattered", r.scattered);
     row("secondary", r.secondary);
     row("total", r.total);
     for (const auto& e : r.examples)

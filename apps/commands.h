@@ -30,7 +30,7 @@ class Interrupted : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// Adds the SCENE positional and --tessellate to a subcommand.
+/// Adds the SCENE positional, --tessellate, --scale and --translate to a subcommand.
 void add_scene_options(CLI::App& cmd, core::SceneSource& source);
 
 /// Adds --skip-empty on|off (core::GridParams::skip_empty) to a subcommand;

@@ -21,6 +21,16 @@ void add_scene_options(CLI::App& cmd, core::SceneSource& source) {
   cmd.add_option("--tessellate,-t", source.tessellate,
                  "Replace spheres by 12*R^2 and cones by 8*R triangles, as SPD's -t R (0 = curved)")
       ->check(CLI::Range(0, 1000));
+  cmd.add_option("--scale", source.transform.scale,
+                 "Scale the whole scene (geometry, lights, view) by S about the origin, after tessellation; the "
+                 "picture should not change [default: 1]")
+      ->check(CLI::PositiveNumber);
+  cmd.add_option_function<std::vector<double>>(
+         "--translate",
+         [&source](const std::vector<double>& v) { source.transform.translate = {v[0], v[1], v[2]}; },
+         "Move the whole scene by X,Y,Z world units (after --scale) [default: 0,0,0]")
+      ->delimiter(',')
+      ->expected(3);
 }
 
 void add_skip_empty_option(CLI::App& cmd, bool& skip_empty) {

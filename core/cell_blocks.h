@@ -136,9 +136,15 @@ inline bool finish_lane(const Ray& ray, const WatertightRay& w, const TriangleBl
   block_triangle(b, l, v0, v1, v2);
   if (u == 0.0f || v == 0.0f || e == 0.0f) [[unlikely]]
     return intersect_triangle_axes<KX, KY, KZ>(ray, w, v0, v1, v2, tmax, hit);
-  const float oz = detail::axis<KZ>(ray.origin);
-  return finish_watertight(ray, u, v, e, w.sz * (detail::axis<KZ>(v0) - oz), w.sz * (detail::axis<KZ>(v1) - oz),
-                           w.sz * (detail::axis<KZ>(v2) - oz), tmax, v0, v1, v2, hit);
+  // The lane's sheared coordinates, recomputed in scalar with the block
+  // test's operations (the same values) for the t error bound.
+  const Vec3 a = v0 - ray.origin, b2 = v1 - ray.origin, c = v2 - ray.origin;
+  using detail::axis;
+  const float rz3[3] = {axis<KZ>(a), axis<KZ>(b2), axis<KZ>(c)};
+  const float sx3[3] = {axis<KX>(a) - w.sx * rz3[0], axis<KX>(b2) - w.sx * rz3[1], axis<KX>(c) - w.sx * rz3[2]};
+  const float sy3[3] = {axis<KY>(a) - w.sy * rz3[0], axis<KY>(b2) - w.sy * rz3[1], axis<KY>(c) - w.sy * rz3[2]};
+  return finish_watertight(ray, u, v, e, sx3, sy3, rz3, w.sz * rz3[0], w.sz * rz3[1], w.sz * rz3[2], tmax, v0, v1,
+                           v2, hit);
 }
 
 /// Tests a packed cell's triangles in list order against `ray`; on a hit

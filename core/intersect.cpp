@@ -2,23 +2,53 @@
 
 namespace raynode::core {
 
+namespace {
+
+/// a / |a| computed in double, rounded to float; (0,0,0) for a zero vector.
+Vec3 unit_from_double(const double a[3]) {
+  const double len = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+  if (!(len > 0.0) || !std::isfinite(len)) return {0, 0, 0};
+  return {float(a[0] / len), float(a[1] / len), float(a[2] / len)};
+}
+
+}  // namespace
+
 Vec3 geometric_normal(const Primitive& p, const Vec3& x) {
   switch (p.kind) {
-    case PrimitiveKind::kTriangle:
-      return cross(p.vertex(1) - p.vertex(0), p.vertex(2) - p.vertex(0));
-    case PrimitiveKind::kSphere:
-      return x - p.center();
+    case PrimitiveKind::kTriangle: {
+      // In double: the products of float edges are exact there, and neither
+      // they nor the squared length overflow (edges of 1e10 and beyond would
+      // in float).
+      double e1[3], e2[3];
+      for (int i = 0; i < 3; ++i) {
+        e1[i] = double(p.data[3 + i]) - p.data[i];
+        e2[i] = double(p.data[6 + i]) - p.data[i];
+      }
+      const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                           e1[0] * e2[1] - e1[1] * e2[0]};
+      return unit_from_double(n);
+    }
+    case PrimitiveKind::kSphere: {
+      const double n[3] = {double(x.x) - p.data[0], double(x.y) - p.data[1], double(x.z) - p.data[2]};
+      return unit_from_double(n);
+    }
     case PrimitiveKind::kCone: {
-      // Gradient of |q_perp|^2 - r(s)^2 in the cone's frame.
-      const Vec3 axis = p.cone_apex() - p.cone_base();
-      const float h = length(axis);
-      const Vec3 w = axis * (1.0f / h);
-      const Vec3 q = x - p.cone_base();
-      const float s = dot(q, w);
-      const Vec3 perp = q - w * s;
-      const float k = (std::fabs(p.cone_apex_radius()) - std::fabs(p.cone_base_radius())) / h;
-      const float r = std::fabs(p.cone_base_radius()) + k * s;
-      return perp - w * (r * k);
+      // Gradient of |q_perp|^2 - r(s)^2 in the cone's frame, in double.
+      double w[3], q[3];
+      for (int i = 0; i < 3; ++i) {
+        w[i] = double(p.data[4 + i]) - p.data[i];
+        q[i] = double(x[i]) - p.data[i];
+      }
+      const double h = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+      if (!(h > 0.0)) return {0, 0, 0};
+      for (double& c : w) c /= h;
+      const double s = q[0] * w[0] + q[1] * w[1] + q[2] * w[2];
+      const double rb = std::fabs(double(p.cone_base_radius())), ra = std::fabs(double(p.cone_apex_radius()));
+      const double k = (ra - rb) / h;
+      const double r = rb + k * s;
+      double n[3];
+      for (int i = 0; i < 3; ++i) n[i] = (q[i] - w[i] * s) - w[i] * (r * k);
+      return unit_from_double(n);
     }
   }
   return {0, 0, 1};

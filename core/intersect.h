@@ -81,21 +81,102 @@ inline bool triangle_is_degenerate(const Vec3& v0, const Vec3& v1, const Vec3& v
   return !(area2 > 1e-7 * longest2);
 }
 
+/// Distance from a ray's origin, relative to its largest coordinate (64
+/// float spacings), within which a triangle hit whose float t is rounding
+/// noise counts as the surface the ray starts on (finish_watertight).
+inline constexpr float kNearOrigin = 0x1p-17f;
+
+/// The ray parameter where the ray's line crosses the triangle's plane,
+/// t = n.(v0 - o) / n.d with n = (v1 - v0) x (v2 - v0), all in double
+/// (the float differences are exact there, the products nearly so), and
+/// a bound on its error: `t` and `err` in units of the ray parameter.
+/// False when the ray is parallel to the plane. The fallback of
+/// finish_watertight where the float t is not good enough, and the source
+/// of spawn.h's ray-based hit point.
+inline bool triangle_plane_t(const Ray& ray, const Vec3& v0, const Vec3& v1, const Vec3& v2, double& t,
+                             double& err) {
+  double e1[3], e2[3], q[3], d[3];
+  for (int i = 0; i < 3; ++i) {
+    e1[i] = double(v1[i]) - v0[i];
+    e2[i] = double(v2[i]) - v0[i];
+    q[i] = double(v0[i]) - ray.origin[i];
+    d[i] = ray.direction[i];
+  }
+  const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+  const double nd = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+  if (nd == 0.0 || !std::isfinite(nd)) return false;
+  const double nq = n[0] * q[0] + n[1] * q[1] + n[2] * q[2];
+  t = nq / nd;
+  const double mag_q = std::fabs(n[0] * q[0]) + std::fabs(n[1] * q[1]) + std::fabs(n[2] * q[2]);
+  const double mag_d = std::fabs(n[0] * d[0]) + std::fabs(n[1] * d[1]) + std::fabs(n[2] * d[2]);
+  err = 0x1p-48 * (mag_q + std::fabs(t) * mag_d) / std::fabs(nd);
+  return true;
+}
+
 namespace detail {
+
+/// Bound on the rounding error of the watertight test's t (in units of the
+/// ray parameter), from the values the test computed it from (see
+/// finish_watertight). t = sum e_i z_i / sum e_i, so an error d_i in an
+/// edge function moves t by sum d_i (z_i - t) / det: by the spread of the
+/// vertices' z about t, not by their magnitude (pbrt-v4's bound, PBR 4th
+/// ed. §6.8.4, takes the magnitude and rejects every hit on a 1e8 triangle
+/// seen from 1e-2 away). The edge functions' error bound is pbrt-v4's
+/// (gamma(5) on the sheared coordinates, the shear taken on the unscaled z
+/// so that it holds for directions of any length); the z values and the
+/// sums add gamma(7) of their magnitudes; the whole is doubled for the
+/// first-order terms left out. Relative to the operands throughout: the
+/// test answers alike at any scale and position.
+[[gnu::always_inline]] inline float triangle_t_error(float t, float u, float v, float e, float inv_det,
+                                                     const float sx3[3], const float sy3[3], const float rz3[3],
+                                                     float az, float bz, float cz) {
+  auto max3 = [](float a, float b, float c) { return std::max(std::fabs(a), std::max(std::fabs(b), std::fabs(c))); };
+  constexpr float u1 = 0x1p-24f;
+  constexpr float g2 = 2 * u1 / (1 - 2 * u1), g5 = 5 * u1 / (1 - 5 * u1), g7 = 7 * u1 / (1 - 7 * u1);
+  const float max_zr = max3(rz3[0], rz3[1], rz3[2]);
+  const float max_xt = max3(sx3[0], sx3[1], sx3[2]), max_yt = max3(sy3[0], sy3[1], sy3[2]);
+  const float delta_x = g5 * (max_xt + max_zr), delta_y = g5 * (max_yt + max_zr);
+  const float delta_e = 2 * (g2 * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+  const float spread = std::fabs(az - t) + std::fabs(bz - t) + std::fabs(cz - t);
+  const float sum_e = std::fabs(u) + std::fabs(v) + std::fabs(e);
+  return 2 * (delta_e * spread + g7 * (max3(az, bz, cz) + std::fabs(t)) * sum_e) * std::fabs(inv_det);
+}
 
 /// The watertight test's last steps (Woop, Benthin, Wald 2013), after its
 /// sign test, shared by every form of the test so that they round alike:
-/// from the edge functions u, v, e and the sheared z of the three vertices
-/// relative to the origin (az, bz, cz), the hit's t (ray.tmin < t < tmax),
-/// then the degeneracy check, then the barycentrics.
-[[gnu::always_inline]] inline bool finish_watertight(const Ray& ray, float u, float v, float e, float az, float bz,
+/// from the edge functions u, v, e, the sheared x and y of the three
+/// vertices relative to the origin (`sx3`, `sy3`), their z before (`rz3`,
+/// world units) and after the scaling by 1/d_z (az, bz, cz), the hit's t,
+/// accepted when ray.tmin < t < tmax, then the degeneracy check, then the
+/// barycentrics. Where the float t is not clearly larger than its own
+/// rounding-error bound (triangle_t_error: an origin lying in or next to
+/// the triangle's plane, a grazing ray, a triangle far larger than the
+/// distance to the hit), the hit is refused when that bound reaches no
+/// further than kNearOrigin of the origin's magnitude (pbrt-v4's rule: the
+/// surface the ray was spawned from), else t is recomputed in double from
+/// the plane (triangle_plane_t) and the hit counts only if that t exceeds
+/// its own, far smaller, bound: an eye in a polygon's plane does not see it
+/// at t = 1e-7, and a 1e8 ground seen from 1e-2 away is hit where it is.
+[[gnu::always_inline]] inline bool finish_watertight(const Ray& ray, float u, float v, float e, const float sx3[3],
+                                                     const float sy3[3], const float rz3[3], float az, float bz,
                                                      float cz, float tmax, const Vec3& v0, const Vec3& v1,
                                                      const Vec3& v2, TriangleHit& hit) {
   const float det = u + v + e;
   if (det == 0.0f) return false;
   const float t_scaled = u * az + v * bz + e * cz;
   const float inv_det = 1.0f / det;
-  const float t = t_scaled * inv_det;
+  float t = t_scaled * inv_det;
+  const float t_err = triangle_t_error(t, u, v, e, inv_det, sx3, sy3, rz3, az, bz, cz);
+  if (!(t_err < 0.5f * std::fabs(t))) [[unlikely]] {
+    // Within kNearOrigin float spacings of the origin: a surface the ray
+    // was spawned from (or one within rounding of it), not a hit. Beyond
+    // that the float t is just not good enough (a huge triangle): ask the
+    // plane in double.
+    if (t_err * max_component(abs(ray.direction)) <= kNearOrigin * max_component(abs(ray.origin))) return false;
+    double td = 0, err = 0;
+    if (!triangle_plane_t(ray, v0, v1, v2, td, err) || !(td > err)) return false;
+    t = static_cast<float>(td);
+  }
   if (!(t > ray.tmin && t < tmax)) return false;
   if (triangle_is_degenerate(v0, v1, v2)) [[unlikely]] return false;
   hit.t = t;
@@ -135,8 +216,9 @@ template <int KX, int KY, int KZ>
     e = static_cast<float>(double(bx) * ay - double(by) * ax);
     if ((u < 0.0f || v < 0.0f || e < 0.0f) && (u > 0.0f || v > 0.0f || e > 0.0f)) return false;
   }
-  return detail::finish_watertight(ray, u, v, e, w.sz * axis<KZ>(a), w.sz * axis<KZ>(b), w.sz * axis<KZ>(c), tmax,
-                                   v0, v1, v2, hit);
+  const float sx3[3] = {ax, bx, cx}, sy3[3] = {ay, by, cy}, rz3[3] = {axis<KZ>(a), axis<KZ>(b), axis<KZ>(c)};
+  return detail::finish_watertight(ray, u, v, e, sx3, sy3, rz3, w.sz * axis<KZ>(a), w.sz * axis<KZ>(b),
+                                   w.sz * axis<KZ>(c), tmax, v0, v1, v2, hit);
 }
 
 /// Watertight ray/triangle test (Woop, Benthin, Wald 2013): see
@@ -210,11 +292,14 @@ template <int KX, int KY, int KZ>
     return intersect_triangle_axes<KX, KY, KZ>(ray, w, Vec3{v[0], v[1], v[2]}, Vec3{v[3], v[4], v[5]},
                                                Vec3{v[6], v[7], v[8]}, tmax, hit);
   // The ray's line crosses the triangle (rare): finish in scalar, on the same values.
-  alignas(16) float uve[4], z[4];
+  alignas(16) float uve[4], z[4], xs[4], ys[4], zr[4];
   _mm_store_ps(uve, U);
   _mm_store_ps(z, _mm_mul_ps(lanes.sz, ckz));
-  return detail::finish_watertight(ray, uve[0], uve[1], uve[2], z[0], z[1], z[2], tmax, Vec3{v[0], v[1], v[2]},
-                                   Vec3{v[3], v[4], v[5]}, Vec3{v[6], v[7], v[8]}, hit);
+  _mm_store_ps(xs, X);
+  _mm_store_ps(ys, Y);
+  _mm_store_ps(zr, ckz);
+  return detail::finish_watertight(ray, uve[0], uve[1], uve[2], xs, ys, zr, z[0], z[1], z[2], tmax,
+                                   Vec3{v[0], v[1], v[2]}, Vec3{v[3], v[4], v[5]}, Vec3{v[6], v[7], v[8]}, hit);
 #else
   return intersect_triangle_axes<KX, KY, KZ>(ray, w, Vec3{v[0], v[1], v[2]}, Vec3{v[3], v[4], v[5]},
                                              Vec3{v[6], v[7], v[8]}, tmax, hit);
@@ -295,21 +380,19 @@ inline bool intersect_cone(const Ray& ray, const Vec3& base, float rb_in, const 
   const double qa = dp[0] * dp[0] + dp[1] * dp[1] + dp[2] * dp[2] - k * k * dw * dw;
   const double qb = 2.0 * (op[0] * dp[0] + op[1] * dp[1] + op[2] * dp[2] - k * r0 * dw);
   const double qc = op[0] * op[0] + op[1] * op[1] + op[2] * op[2] - r0 * r0;
-  double roots[2];
-  int nroots = 0;
-  const double scale = std::fabs(qb) + std::fabs(qc) + 1e-300;
-  if (std::fabs(qa) <= 1e-12 * scale) {
-    if (qb == 0.0) return false;
-    roots[nroots++] = -qc / qb;
-  } else {
-    const double disc = qb * qb - 4.0 * qa * qc;
-    if (disc < 0.0) return false;
-    const double q = -0.5 * (qb + std::copysign(std::sqrt(disc), qb));
-    double t0 = q / qa, t1 = (q != 0.0) ? qc / q : t0;
-    if (t0 > t1) std::swap(t0, t1);
-    roots[nroots++] = t0;
-    roots[nroots++] = t1;
-  }
+  // The stable pair of roots (Press et al., "Numerical Recipes", §5.6):
+  // q = -(qb + sign(qb) sqrt(disc)) / 2, t = q / qa and t = qc / q. No
+  // tolerance decides whether the quadratic is "really" linear: as qa -> 0
+  // (a ray parallel to a cylinder's side or to a cone's slant line) q / qa
+  // goes to infinity on its own and qc / q stays the finite root, at any
+  // scale and for directions of any length.
+  const double disc = qb * qb - 4.0 * qa * qc;
+  if (disc < 0.0) return false;
+  const double q = -0.5 * (qb + std::copysign(std::sqrt(disc), qb));
+  if (q == 0.0) return false;  // qb = 0 and qa qc = 0: no isolated root
+  double roots[2] = {qc / q, qa != 0.0 ? q / qa : kInfinity};
+  if (roots[0] > roots[1]) std::swap(roots[0], roots[1]);
+  const int nroots = 2;
   for (int i = 0; i < nroots; ++i) {
     const double t = roots[i];
     if (!(t > ray.tmin && t < tmax)) continue;
@@ -324,8 +407,10 @@ inline bool intersect_cone(const Ray& ray, const Vec3& base, float rb_in, const 
   return false;
 }
 
-/// Geometric (unnormalised, not face-forwarded) normal of primitive `p` at
-/// world point `hit_point`.
+/// Unit geometric normal (not face-forwarded) of primitive `p` at world
+/// point `hit_point`, computed in double so that no squared length
+/// overflows or underflows (triangles with edges of 1e10 and more, or of
+/// 1e-20 and less); (0,0,0) for a degenerate primitive.
 Vec3 geometric_normal(const Primitive& p, const Vec3& hit_point);
 
 }  // namespace raynode::core

@@ -38,6 +38,7 @@
 
 #include <fmt/format.h>
 
+#include "core/camera.h"
 #include "core/database.h"
 #include "core/scene_file.h"
 #include "core/stop.h"
@@ -512,9 +513,9 @@ class Parser {
       lex_.fail_at(label_at[2], fmt::format("view 'up' {} is parallel to the viewing direction {} (it has no "
                                             "length)", text(v.up), text(dir)));
     }
-    if (!(length(cross(normalize_any(dir), v.up)) > 1e-6f * length(v.up))) {
-      lex_.fail_at(label_at[2], fmt::format("view 'up' {} is parallel to the viewing direction {}{}", text(v.up),
-                                            text(dir), std::isfinite(dot(v.up, v.up)) ? "" : " (or too long)"));
+    if (!up_is_usable(normalize_any(dir), v.up)) {
+      lex_.fail_at(label_at[2], fmt::format("view 'up' {} is parallel to the viewing direction {}", text(v.up),
+                                            text(dir)));
     }
     if (!(v.angle > 0.0f && v.angle < 180.0f)) {
       lex_.fail_at(label_at[3], fmt::format("view 'angle' {} must be in (0, 180) degrees", v.angle));

@@ -25,14 +25,17 @@ Scene load_scene(const SceneSource& source) {
   if (source.tessellate < 0 || source.tessellate > 1000)
     throw std::invalid_argument("--tessellate must be between 0 and 1000, got " +
                                 std::to_string(source.tessellate));
+  Scene s;
   if (is_scene_file(source.spec)) {
-    Scene s = read_nff(source.spec);
+    s = read_nff(source.spec);
     if (source.tessellate > 0) tessellate_scene(s, source.tessellate);
-    return s;
+  } else {
+    SpdParams p = parse_spd_spec(source.spec);
+    p.tessellate = source.tessellate;
+    s = make_spd_scene(p);
   }
-  SpdParams p = parse_spd_spec(source.spec);
-  p.tessellate = source.tessellate;
-  return make_spd_scene(p);
+  transform_scene(s, source.transform);
+  return s;
 }
 
 }  // namespace raynode::core

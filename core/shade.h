@@ -26,9 +26,12 @@
 // * `pp` triangles: shading normal = barycentric interpolation of the vertex
 //   normals (Hit::u weights v1, Hit::v weights v2), flipped with the
 //   geometric normal.
-// * Secondary-ray origins are offset along the face-forwarded geometric
-//   normal by 1e-4 * (1 + max|coordinate of the hit|) world units, so the
-//   offset scales with the magnitude (and float spacing) of the hit point.
+// * Secondary-ray origins: the hit point carries a bound on its rounding
+//   error (spawn.h, hit_point); shadow and reflected rays start just past
+//   that bound on the side the ray came from, refracted rays on the side
+//   they leave towards (offset_ray_origin; pbrt-v4's error-bounded spawn).
+//   No absolute epsilon: the offset is a few float spacings of the
+//   primitive's coordinates, whatever the scene's scale or position.
 // * Shadow rays are not cast when the shading normal faces away from the
 //   light (N.L <= 0). Depth: the eye ray is level 1; no secondary ray is
 //   spawned from level max_depth. Min-weight pruning (Hall & Greenberg,
@@ -44,6 +47,7 @@
 #include "core/database.h"
 #include "core/intersect.h"
 #include "core/math.h"
+#include "core/spawn.h"
 #include "core/stop.h"
 #include "core/traverse.h"
 
@@ -141,9 +145,6 @@ inline ShadingContext make_shading_context(const Database& db, int max_depth = 5
   return make_shading_context(std::span<const Light>(db.lights), db.background, max_depth, min_weight);
 }
 
-/// Offset of secondary-ray origins from a hit at `p`, in world units.
-inline float ray_offset(const Vec3& p) { return 1e-4f * (1.0f + max_component(abs(p))); }
-
 /// Refraction direction by Snell's law (Whitted 1980; vector form as in
 /// Heckbert's "Writing a Ray Tracer", 1989): unit incident direction `d`,
 /// unit normal `n` on the side `d` comes from (dot(d, n) <= 0), `eta` =
@@ -160,26 +161,32 @@ inline bool refract(const Vec3& d, const Vec3& n, float eta, Vec3& out) {
 
 /// The local frame of a hit, as shading sees it.
 struct SurfaceFrame {
-  Vec3 p;            ///< hit point, world units
+  Vec3 p;            ///< hit point on the surface, world units (hit_point)
   Vec3 d;            ///< unit ray direction
   Vec3 nf;           ///< unit geometric normal, face-forwarded towards the ray's origin side
   Vec3 ns;           ///< unit shading normal (interpolated for `pp` triangles), flipped like nf
   bool front = true; ///< the ray arrives at the front side (dot(unflipped normal, d) < 0)
+  Vec3 above;        ///< origin of rays leaving on nf's side (shadow, reflected), world units
+  Vec3 below;        ///< origin of rays leaving on the other side (refracted)
 };
 
 /// Frame of the closest hit `hit` of `ray` (hit.found()). `prim` is the hit
 /// primitive as the view returned it; `pp` vertex normals come from the view.
+/// The point and the two spawn origins come from spawn.h (hit_point,
+/// offset_ray_origin), the same in every mode.
 template <class View>
 SurfaceFrame surface_frame(const View& view, const Primitive& prim, const Ray& ray, const Hit& hit) {
   SurfaceFrame f;
-  f.d = normalize(ray.direction);
-  f.p = ray.at(hit.t);
+  f.d = normalize_any(ray.direction);
+  const HitPoint hp = hit_point(prim, ray, hit);
+  f.p = hp.p;
   // Geometric normal: raw (for entering/exiting) and face-forwarded.
   Vec3 ng = geometric_normal(prim, f.p);
-  const float ng_len = length(ng);
-  ng = ng_len > 0.0f ? ng * (1.0f / ng_len) : -f.d;
+  if (!(dot(ng, ng) > 0.0f)) ng = -f.d;
   f.front = dot(ng, f.d) < 0.0f;
   f.nf = f.front ? ng : -ng;
+  f.above = offset_ray_origin(hp, f.nf);
+  f.below = offset_ray_origin(hp, -f.nf);
   // Shading normal, flipped together with the geometric one.
   f.ns = f.nf;
   if (prim.kind == PrimitiveKind::kTriangle && prim.normals != kNoNormals) {
@@ -228,14 +235,12 @@ Vec3 trace_ray(const View& view, const ShadingContext& ctx, const Ray& ray, int 
   const Material& m = view.material(prim.material);
   const SurfaceFrame f = surface_frame(view, prim, ray, hit);
   const Vec3& d = f.d;
-  const Vec3& p = f.p;
   const Vec3& nf = f.nf;
   const Vec3& ns = f.ns;
   const bool front = f.front;
   if (first_hit) *first_hit = FirstHit{hit.t, ns, std::int64_t(prim.shape)};
-  const float eps = ray_offset(p);
-  const Vec3 above = p + nf * eps;  // on the side the ray came from
-  const Vec3 below = p - nf * eps;
+  const Vec3& above = f.above;  // on the side the ray came from
+  const Vec3& below = f.below;
   const Vec3 v = -d;
 
   Vec3 color = m.color * (m.kd * ctx.ambient_intensity);

@@ -10,6 +10,7 @@
 #include "core/direct_view.h"
 #include "core/intersect.h"
 #include "core/render.h"
+#include "core/spawn.h"
 
 namespace raynode::core {
 
@@ -94,6 +95,18 @@ bool reference_triangle(const Ray& ray, const Primitive& p, double tmax, double 
   if (std::min({u / det, v / det, w / det}) < margin) return false;
   const double t = (u * pz[0] + v * pz[1] + w * pz[2]) / det;
   if (!(t > ray.tmin && t < tmax)) return false;
+  if (margin > 0) {
+    // The strict answer also leaves out a hit within the rounding of the
+    // plane crossing in double (triangle_plane_t's bound, which the float
+    // test applies where its own t is not good enough): an origin spawned
+    // within rounding distance of a surface does not hit it.
+    double tp = 0, err = 0;
+    if (!triangle_plane_t(ray, p.vertex(0), p.vertex(1), p.vertex(2), tp, err) || !(tp > err)) return false;
+    // Nor one within kNearOrigin float spacings of the origin, which the
+    // float test may refuse as the surface the ray starts on.
+    const double dmax = max_component(abs(ray.direction)), omax = max_component(abs(ray.origin));
+    if (tp * dmax <= 2.0 * double(kNearOrigin) * omax) return false;
+  }
   t_out = t;
   return true;
 }
@@ -294,23 +307,26 @@ ValidateReport validate_grid(const Database& db, const Grid& grid, const EmbreeS
     }
   }
 
+  // Secondary rays start where the tracer starts them (spawn.h): from the
+  // grid's hit point with its error bound, offset to the side they leave
+  // towards. Both structures get the same ray.
   for (const Origin& o : hits) {
     const Primitive& p = db.primitives[o.hit.primitive];
-    const Vec3 x = o.ray.at(o.hit.t);
-    Vec3 n = geometric_normal(p, x);
-    if (!(length(n) > 0.0f)) continue;
-    n = normalize(n);
-    const Vec3 d = normalize(o.ray.direction);
-    const float scale = 1e-4f * (1.0f + max_component(abs(x)));
+    const HitPoint hp = hit_point(p, o.ray, o.hit);
+    const Vec3 n = geometric_normal(p, hp.p);
+    if (!(dot(n, n) > 0.0f)) continue;
+    const Vec3 d = normalize_any(o.ray.direction);
     // Mirror reflection, leaving on the side the ray came from.
     const Vec3 nf = dot(n, d) < 0.0f ? n : -n;
     const Vec3 refl = d - n * (2.0f * dot(d, n));
-    chk.check("secondary", Ray{x + nf * scale, refl, 0.0f, kInfinity}, report.secondary, true);
-    // A random direction, leaving on its own side.
+    chk.check("reflected", Ray{offset_ray_origin(hp, nf), refl, 0.0f, kInfinity}, report.reflected, true);
+    // A random direction, leaving on its own side (as a refracted or shadow ray may).
     const Vec3 rd = random_unit(rng);
     const Vec3 side = dot(n, rd) >= 0.0f ? n : -n;
-    chk.check("secondary", Ray{x + side * scale, rd, 0.0f, kInfinity}, report.secondary, true);
+    chk.check("scattered", Ray{offset_ray_origin(hp, side), rd, 0.0f, kInfinity}, report.scattered, true);
   }
+  report.secondary = report.reflected;
+  report.secondary += report.scattered;
 
   report.total = report.primary;
   report.total += report.random;

@@ -10,9 +10,13 @@
 //    uniform random directions, half aimed at a random point of a random
 //    primitive (so sparse scenes still get hits);
 //  - secondary: from the grid's hit points of primary and random rays, a
-//    mirror-reflected ray and a random-direction ray, their origins offset
-//    along the normal by 1e-4 x (1 + largest |coordinate| of the point) to
-//    the side they leave towards; also checked as any-hit (shadow) queries.
+//    mirror-reflected ray ("reflected") and a random-direction ray
+//    ("scattered"), their origins spawned exactly as the tracer spawns its
+//    secondary rays (spawn.h: the hit point's error bound, offset to the side
+//    they leave towards), so that both structures see the rays the renderer
+//    casts; also checked as any-hit (shadow) queries.
+// Each set reports the worst relative t error |t_grid - t_embree| / max(t)
+// over the rays where both hit within tolerance.
 // Mismatch: one structure hits and the other misses, or both hit with t
 // differing by more than tolerance = t_rel / max(|cos a|, 1e-4) x
 // max(t_grid, t_embree) + 1e-6 x scene diagonal, where a is the angle between
@@ -25,7 +29,10 @@
 // either way in float) plus the barycentric error that the float test's
 // rounding of the ray-space vertex coordinates can cause (it grows with the
 // distance from the ray origin over the triangle's size: a small triangle
-// seen from far away); when the grid's hit distance lies between the two
+// seen from far away); the shrunk answer also leaves out hits within the
+// rounding of the plane crossing (an origin spawned within rounding
+// distance of a surface: the grid rejects those, as it must; Embree may
+// not); when the grid's hit distance lies between the two
 // referee answers it is counted as an oracle error (Embree's
 // robust mode inflates triangles a little; its float sphere test loses
 // digits on small, distant spheres), not as a mismatch.
@@ -82,7 +89,10 @@ struct MismatchExample {
 };
 
 struct ValidateReport {
-  ValidateCounts primary, random, secondary, total;
+  ValidateCounts primary, random;
+  ValidateCounts reflected, scattered;  ///< the two kinds of secondary ray
+  ValidateCounts secondary;             ///< reflected + scattered
+  ValidateCounts total;
   std::vector<MismatchExample> examples;
   TraversalStats grid_stats;
 };

@@ -350,7 +350,10 @@ class NodeTracer {
     std::uint32_t next = me_;
     const float t_exit = map_.exit_region(me_, ScreenRay::of(s_.frame, o, d), m.t_enter, next);
     const bool last = !(t_exit < m.tmax);
-    const core::Ray q{o, d, query_start(m.t_enter), last ? m.tmax : t_exit};
+    // Eye rays start at the view's hither distance, as core's camera casts them.
+    const float tmin = m.kind == RayKind::kPrimary ? std::max(query_start(m.t_enter), s_.camera.hither())
+                                                   : query_start(m.t_enter);
+    const core::Ray q{o, d, tmin, last ? m.tmax : t_exit};
     core::TraversalScratch& tr = s_.scratch->traversal;
     if (m.kind == RayKind::kShadow) {
       if (core::intersect_any(view_, q, tr)) return;  // blocked
@@ -377,14 +380,12 @@ class NodeTracer {
     const core::Material& mat = view_.material(prim.material);
     const core::SurfaceFrame f = core::surface_frame(view_, prim, ray, hit);
     const core::Vec3& d = f.d;
-    const core::Vec3& p = f.p;
     const core::Vec3& nf = f.nf;
     const core::Vec3& ns = f.ns;
     if (m.flags & kRayFirstHit) first_hit(m.pixel, std::int32_t(prim.shape), hit.t, ns);
     if (m.flags & kRayProbeOnly) return;
-    const float eps = core::ray_offset(p);
-    const core::Vec3 above = p + nf * eps;
-    const core::Vec3 below = p - nf * eps;
+    const core::Vec3& above = f.above;
+    const core::Vec3& below = f.below;
     const core::Vec3 v = -d;
 
     contribute(m.pixel, mat.color * (mat.kd * shading_.ambient_intensity) * m.weight);

@@ -10,7 +10,7 @@
 //   kd-tree of regions and its own primary rays (those entering the scene
 //   in its region).
 //   node: traces a ray inside its region (RegionView + core traversal); a hit
-//   there is shaded with core's formula (surface_frame, refract, ray_offset,
+//   there is shaded with core's formula (surface_frame with its spawn origins, refract,
 //   the Whitted terms of core::trace_ray) and its shadow, reflected and
 //   refracted rays go on; a ray leaving the region is sent to the owner of
 //   the next region along it (a RayMsg with pixel id and path weight);

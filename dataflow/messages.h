@@ -27,7 +27,8 @@ inline constexpr std::uint8_t kRayProbeOnly = 2;     ///< AOV-only primary (even
 /// core::trace_ray does, only when the ray reaches the light.
 inline constexpr std::uint8_t kRayHighlightSkip = 4;
 
-/// A ray on its way: the ray (origin, direction; tmin is always 0), where
+/// A ray on its way: the ray (origin, direction; tmin is 0, or for an eye
+/// ray the view's hither distance, which every node's camera holds), where
 /// it enters the destination region, its path weight and, for a shadow
 /// ray, the pixel term it carries if it reaches the light.
 struct RayMsg {

@@ -6,6 +6,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include "core/camera.h"
+
 namespace raynode::dataflow {
 
 CameraFrame CameraFrame::of(const core::View& view) {
@@ -14,10 +16,9 @@ CameraFrame CameraFrame::of(const core::View& view) {
   CameraFrame f;
   f.origin = view.from;
   f.w = core::normalize_any(dir);  // as core::Camera
-  const core::Vec3 right = core::cross(f.w, view.up);
-  if (!(core::length(right) > 1e-6f * core::length(view.up)))
-    throw std::invalid_argument("view 'up' is parallel to the viewing direction");
-  f.u = core::normalize(right);
+  if (!core::up_is_usable(f.w, view.up)) throw std::invalid_argument("view 'up' is parallel to the viewing direction");
+  const core::Vec3 right = core::cross(f.w, view.up);  // as core::Camera
+  f.u = core::is_finite(right) ? core::normalize_any(right) : core::normalize(core::cross(f.w, core::normalize_any(view.up)));
   f.v = core::cross(f.u, f.w);
   return f;
 }

@@ -1,0 +1,48 @@
+#include "core/scene_transform.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <stdexcept>
+
+namespace raynode::core {
+
+void transform_scene(Scene& scene, const SceneTransform& t) {
+  if (!(std::isfinite(t.scale) && t.scale > 0.0))
+    throw std::invalid_argument(fmt::format("scale must be finite and positive, got {}", t.scale));
+  for (double x : t.translate)
+    if (!std::isfinite(x)) throw std::invalid_argument(fmt::format("translation must be finite, got {}", x));
+  if (t.is_identity()) return;
+  auto length = [&](float v, const char* what) {
+    const double r = double(v) * t.scale;
+    if (!(std::fabs(r) <= double(std::numeric_limits<float>::max())))
+      throw std::invalid_argument(fmt::format("{} {} scaled by {} does not fit in a float", what, v, t.scale));
+    return float(r);
+  };
+  auto point = [&](Vec3& p, const char* what) {
+    for (int a = 0; a < 3; ++a) {
+      const double r = double(p[a]) * t.scale + t.translate[std::size_t(a)];
+      if (!(std::fabs(r) <= double(std::numeric_limits<float>::max())))
+        throw std::invalid_argument(fmt::format("{} ({}, {}, {}) transformed does not fit in a float", what, p.x,
+                                                p.y, p.z));
+      p[a] = float(r);
+    }
+  };
+  for (Vec3& v : scene.vertices) point(v, "vertex");
+  for (Sphere& s : scene.spheres) {
+    point(s.center, "sphere centre");
+    s.radius = length(s.radius, "sphere radius");
+  }
+  for (Cone& c : scene.cones) {
+    point(c.base, "cone base");
+    point(c.apex, "cone apex");
+    c.base_radius = length(c.base_radius, "cone base radius");
+    c.apex_radius = length(c.apex_radius, "cone apex radius");
+  }
+  for (Light& l : scene.lights) point(l.position, "light");
+  point(scene.view.from, "view 'from'");
+  point(scene.view.at, "view 'at'");
+  scene.view.hither = length(scene.view.hither, "view 'hither'");
+}
+
+}  // namespace raynode::core

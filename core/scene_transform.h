@@ -1,0 +1,32 @@
+// A uniform scale and a translation of a whole scene: geometry, lights and
+// view together, so that the picture stays the same.
+//
+// Place in the data flow: load_scene (scene_source.h, --scale/--translate)
+// or a test -> transform_scene -> Scene -> make_database. Used to check that
+// the tracer is scale- and position-invariant (tests/robustness) and to let
+// users reproduce a scene at another size or place.
+#pragma once
+
+#include <array>
+
+#include "core/scene.h"
+
+namespace raynode::core {
+
+/// x -> scale * x + translate, applied to every point of a scene.
+struct SceneTransform {
+  double scale = 1.0;                          ///< dimensionless, finite, > 0
+  std::array<double, 3> translate{0, 0, 0};    ///< world units, finite
+  bool is_identity() const { return scale == 1.0 && translate == std::array<double, 3>{0, 0, 0}; }
+};
+
+/// Applies `t` to `scene` in place: polygon and patch vertices, sphere
+/// centres and radii, cone ends and radii, light positions, the view's
+/// 'from', 'at' and hither distance (scaled; 'up', the angle and the patch
+/// normals keep their directions). Each coordinate is computed in double
+/// and rounded once to float. Throws std::invalid_argument when the scale
+/// is not finite and positive, a translation is not finite, or a result
+/// does not fit in a float (the message names the first such value).
+void transform_scene(Scene& scene, const SceneTransform& t);
+
+}  // namespace raynode::core

@@ -1,0 +1,221 @@
+// Numerical robustness of the core at any scale: the error-bounded spawn of
+// secondary rays (spawn.h), the triangle test's t > error-bound rule, the
+// stable cone quadratic, normals and the view's 'up' without overflow, and
+// the scene transform. Each case failed before the change it covers.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "core/camera.h"
+#include "core/database.h"
+#include "core/intersect.h"
+#include "core/nff.h"
+#include "core/scene_transform.h"
+#include "core/spawn.h"
+
+using namespace raynode::core;
+
+namespace {
+
+Primitive triangle(const Vec3& a, const Vec3& b, const Vec3& c) {
+  Primitive p;
+  p.kind = PrimitiveKind::kTriangle;
+  const Vec3 v[3] = {a, b, c};
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 3; ++k) p.data[3 * i + k] = v[i][k];
+  return p;
+}
+
+bool hits_triangle(const Ray& r, const Primitive& p, float& t) {
+  TriangleHit h;
+  if (!intersect_triangle(r, WatertightRay(r.direction), p.vertex(0), p.vertex(1), p.vertex(2), kInfinity, h))
+    return false;
+  t = h.t;
+  return true;
+}
+
+}  // namespace
+
+TEST_CASE("spawn: a reflected ray leaves a tilted triangle without hitting it, from 1e-6 to 1e6 scale and far away") {
+  int rays = 0;
+  for (double scale : {1e-6, 1e-3, 1.0, 1e3, 1e6})
+    for (double shift : {0.0, 1e2, 1e4}) {
+      const auto pt = [&](double x, double y, double z) {
+        return Vec3{float(x * scale + shift), float(y * scale - shift), float(z * scale + 0.5 * shift)};
+      };
+      const Primitive tri = triangle(pt(0, 0, 0.1), pt(1, 0.2, 0.3), pt(0.3, 1, 0.7));
+      const Vec3 n = geometric_normal(tri, tri.vertex(0));
+      for (int i = 1; i < 40; ++i)
+        for (int j = 1; j < 40 - i; ++j) {
+          const float u = float(i) / 40.0f, v = float(j) / 40.0f;
+          const Vec3 target = tri.vertex(0) * (1 - u - v) + tri.vertex(1) * u + tri.vertex(2) * v;
+          const Vec3 eye = target + n * float(2 * scale) + Vec3{0.3f, -0.2f, 0.1f} * float(scale);
+          const Ray in{eye, target - eye, 0.0f, kInfinity};
+          float t = 0;
+          if (!hits_triangle(in, tri, t)) continue;
+          Hit hit;
+          hit.t = t;
+          hit.primitive = 0;
+          TriangleHit th;
+          intersect_triangle(in, WatertightRay(in.direction), tri.vertex(0), tri.vertex(1), tri.vertex(2), kInfinity, th);
+          hit.u = th.u;
+          hit.v = th.v;
+          const HitPoint hp = hit_point(tri, in, hit);
+          const Vec3 nf = dot(n, in.direction) < 0 ? n : -n;
+          const Vec3 d = normalize(in.direction);
+          const Ray out{offset_ray_origin(hp, nf), d - nf * (2 * dot(d, nf)), 0.0f, kInfinity};
+          const Ray through{offset_ray_origin(hp, -nf), d, 0.0f, kInfinity};
+          float t2 = 0;
+          CAPTURE(scale);
+          CAPTURE(shift);
+          CHECK_FALSE(hits_triangle(out, tri, t2));      // no self-hit on the way out
+          CHECK_FALSE(hits_triangle(through, tri, t2));  // nor on the way through
+          // The offset is a few float spacings of the vertices' coordinates, not a fixed length.
+          const float mag = std::max({max_component(abs(tri.vertex(0))), max_component(abs(tri.vertex(1))),
+                                      max_component(abs(tri.vertex(2)))});
+          const float spacing = std::ldexp(1.0f, std::ilogb(mag) - 23);
+          CHECK(length(out.origin - hp.p) <= 64 * spacing);
+          ++rays;
+        }
+    }
+  CHECK(rays > 5000);
+}
+
+TEST_CASE("spawn: rays leaving a sphere from outside and inside never hit it again, at radius 1e-6 .. 1e6") {
+  for (double r : {1e-6, 1.0, 1e6}) {
+    Primitive s;
+    s.kind = PrimitiveKind::kSphere;
+    s.data[0] = float(3 * r);
+    s.data[1] = float(-r);
+    s.data[2] = float(r / 3);
+    s.data[3] = float(r);
+    for (int i = 0; i < 200; ++i) {
+      const double a = 0.1 + i * 0.031, b = 0.05 + i * 0.017;
+      const Vec3 dir{float(std::cos(a) * std::cos(b)), float(std::sin(a) * std::cos(b)), float(std::sin(b))};
+      const Ray in{s.center() - dir * float(5 * r), dir, 0.0f, kInfinity};
+      float t = 0;
+      REQUIRE(intersect_sphere(in, s.center(), s.radius(), kInfinity, t));
+      Hit hit;
+      hit.t = t;
+      hit.primitive = 0;
+      const HitPoint hp = hit_point(s, in, hit);
+      const Vec3 n = geometric_normal(s, hp.p);
+      float t2 = 0;
+      // Reflected: out on the outside, heading away: no hit.
+      const Vec3 refl = dir - n * (2 * dot(dir, n));
+      CHECK_FALSE(intersect_sphere(Ray{offset_ray_origin(hp, n), refl, 0.0f, kInfinity}, s.center(), s.radius(),
+                                   kInfinity, t2));
+      // Refracted straight on from just inside: the far side, about 2r away, not a self-hit.
+      REQUIRE(intersect_sphere(Ray{offset_ray_origin(hp, -n), dir, 0.0f, kInfinity}, s.center(), s.radius(),
+                               kInfinity, t2));
+      CHECK(t2 > 1.9 * r);
+    }
+  }
+}
+
+TEST_CASE("triangle: an origin in the triangle's plane does not hit it at a rounding-noise t") {
+  // Before: t ~ 1e-7 was accepted, and an eye standing in a floor polygon's
+  // plane saw speckle over the whole image.
+  const Primitive floor = triangle({-10, -10, 0}, {10, -10, 0}, {0, 10, 0});
+  int hits = 0;
+  for (int i = 0; i < 400; ++i) {
+    // Nearly horizontal directions: the test's z axis is x or y, so the
+    // sheared z values are not 0 and their combination is rounding noise.
+    const float a = 0.05f + 0.0157f * float(i);
+    const Vec3 dir{std::cos(a), std::sin(a), 0.3f * std::sin(7 * a)};
+    float t = 0;
+    hits += hits_triangle(Ray{{0.3f, 0.2f, 0.0f}, dir, 0.0f, kInfinity}, floor, t);
+    hits += hits_triangle(Ray{{-1.7f, -3.1f, 0.0f}, dir * 1e4f, 0.0f, kInfinity}, floor, t);
+  }
+  CHECK(hits == 0);
+  // A real hit at a small distance still counts.
+  float t = 0;
+  CHECK(hits_triangle(Ray{{0.3f, 0.2f, 1e-3f}, {0.0f, 0.0f, -1.0f}, 0.0f, kInfinity}, floor, t));
+  CHECK(t == doctest::Approx(1e-3));
+}
+
+TEST_CASE("cone: the same ray hits a cylinder and a cone alike at scales 1e-6 .. 1e6") {
+  // Before: a tolerance compared the dimensionless quadratic coefficient
+  // with a squared length; at 1e6 every ray took the "linear" branch.
+  for (const float ra : {1.0f, 0.25f}) {
+    const Vec3 base{0, 0, -2}, apex{0, 0, 2};
+    const Ray unit{{5, 0.3f, 0.1f}, {-1, 0.05f, 0.02f}, 0.0f, kInfinity};
+    float t1 = 0;
+    REQUIRE(intersect_cone(unit, base, 1.0f, apex, ra, kInfinity, t1));
+    for (double s : {1e-6, 1e-3, 1e3, 1e6}) {
+      CAPTURE(s);
+      const float fs = float(s);
+      const Ray r{unit.origin * fs, unit.direction * 3.0f, 0.0f, kInfinity};  // direction of any length
+      float t = 0;
+      REQUIRE(intersect_cone(r, base * fs, fs, apex * fs, ra * fs, kInfinity, t));
+      CHECK(double(t) * 3.0 == doctest::Approx(double(t1) * s).epsilon(1e-5));
+    }
+  }
+  // A ray parallel to a cylinder's side misses; one parallel to a cone's
+  // slant line meets it once.
+  float t = 0;
+  CHECK_FALSE(intersect_cone(Ray{{2, 0, -5}, {0, 0, 1}, 0.0f, kInfinity}, {0, 0, -2}, 1.0f, {0, 0, 2}, 1.0f,
+                             kInfinity, t));
+  CHECK(intersect_cone(Ray{{0.5f, 0, -3}, {-1, 0, 4}, 0.0f, kInfinity}, {0, 0, -2}, 1.0f, {0, 0, 2}, 0.0f,
+                       kInfinity, t));
+}
+
+TEST_CASE("normals: triangles with edges of 1e10 to 1e30 and of 1e-20 get a unit normal") {
+  // Before: the squared length overflowed float and the normal came out 0.
+  for (float s : {1e-20f, 1e10f, 1e15f, 1e30f}) {
+    CAPTURE(s);
+    const Primitive tri = triangle({0, 0, 0}, {s, 0, 0}, {0, s, 0});
+    const Vec3 n = geometric_normal(tri, {0, 0, 0});
+    CHECK(n.z == doctest::Approx(1.0f));
+    CHECK(length(n) == doctest::Approx(1.0f));
+  }
+}
+
+TEST_CASE("view: an 'up' of any length is accepted, one parallel to the view direction is not") {
+  const std::string text = "v\nfrom 0 0 5\nat 0 0 0\nup 0 1e20 0\nangle 45\nhither 0\nresolution 8 8\ns 0 0 0 1\n";
+  const Scene s = parse_nff(text);  // before: "'up' is parallel to the viewing direction (or too long)"
+  const Camera cam(s.view, 8, 8);
+  const Scene small = parse_nff("v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 45\nhither 0\nresolution 8 8\n");
+  const Camera ref(small.view, 8, 8);
+  CHECK(cam.ray_through(1.5f, 2.5f).direction == ref.ray_through(1.5f, 2.5f).direction);
+  CHECK_THROWS_AS(parse_nff("v\nfrom 0 0 5\nat 0 0 0\nup 0 0 1e30\nangle 45\nhither 0\nresolution 8 8\n"),
+                  ParseError);
+  CHECK(up_is_usable({0, 0, -1}, {0, 1e-30f, 0}));
+  CHECK_FALSE(up_is_usable({0, 0, -1}, {0, 0, 0}));
+}
+
+TEST_CASE("camera: eye rays start at the view's hither distance") {
+  View v;
+  v.from = {0, 0, 5};
+  v.at = {0, 0, 0};
+  v.hither = 0.25f;
+  CHECK(Camera(v, 4, 4).ray_through(2, 2).tmin == 0.25f);
+  v.hither = 0;
+  CHECK(Camera(v, 4, 4).ray_through(2, 2).tmin == 0.0f);
+}
+
+TEST_CASE("transform_scene: scales and moves geometry, lights and view; refuses what float cannot hold") {
+  Scene s = parse_nff("v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 45\nhither 1\nresolution 8 8\nl 1 2 3\n"
+                      "f 1 0 0 1 0 0 0 0\ns 1 1 1 0.5\nc 0 0 0 1 0 0 2 0.5\np 3\n0 0 0\n1 0 0\n0 1 0\n");
+  SceneTransform t;
+  t.scale = 1e3;
+  t.translate = {10, 0, -5};
+  transform_scene(s, t);
+  CHECK(s.view.from == Vec3{10, 0, 4995});
+  CHECK(s.view.up == Vec3{0, 1, 0});
+  CHECK(s.view.hither == 1000.0f);
+  CHECK(s.lights[0].position == Vec3{1010, 2000, 2995});
+  CHECK(s.spheres[0].center == Vec3{1010, 1000, 995});
+  CHECK(s.spheres[0].radius == 500.0f);
+  CHECK(s.cones[0].apex == Vec3{10, 0, 1995});
+  CHECK(s.cones[0].base_radius == 1000.0f);
+  CHECK(s.vertices[1] == Vec3{1010, 0, -5});
+  SceneTransform bad;
+  bad.scale = 0;
+  CHECK_THROWS_AS(transform_scene(s, bad), std::invalid_argument);
+  bad.scale = 1e36;
+  CHECK_THROWS_AS(transform_scene(s, bad), std::invalid_argument);
+}
