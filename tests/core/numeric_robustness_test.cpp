@@ -197,7 +197,7 @@ TEST_CASE("camera: eye rays start at the view's hither distance") {
   CHECK(Camera(v, 4, 4).ray_through(2, 2).tmin == 0.0f);
 }
 
-TEST_CASE("transform_scene: scales and moves geometry, lights and view; refuses what float cannot hold") {
+TEST_CASE("transform_scene: scales and moves geometry, lights and view, and refuses what float cannot hold") {
   Scene s = parse_nff("v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 45\nhither 1\nresolution 8 8\nl 1 2 3\n"
                       "f 1 0 0 1 0 0 0 0\ns 1 1 1 0.5\nc 0 0 0 1 0 0 2 0.5\np 3\n0 0 0\n1 0 0\n0 1 0\n");
   SceneTransform t;
