@@ -1,4 +1,4 @@
-// Pinhole camera from the NFF view block (../shared/scenes/NFF-NOTES.md,
+// Pinhole camera from the NFF view block (docs/nff.md,
 // "The view block"): w = normalize(at - from), u = normalize(w x up)
 // (screen right), v = u x w (screen up), right-handed. `angle` is the full
 // field of view between the centres of the first and last pixel columns;

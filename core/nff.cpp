@@ -1,5 +1,5 @@
 // NFF reader and writer. See nff.h for the contract and
-// ../shared/scenes/NFF-NOTES.md for the format.
+// docs/nff.md for the format.
 //
 // Reader: the whole file is read into memory (scene_file.h: inflated first
 // when it starts with the gzip magic, within a memory limit), then parsed as

@@ -2,7 +2,7 @@
 //
 // Place in the data flow: file -> read_nff -> Scene -> (make_database, or
 // write_nff back to a file). The reader is a token-stream parser, as
-// ../shared/scenes/NFF-NOTES.md advises (SPD writes `c` on one line, the
+// docs/nff.md describes (SPD writes `c` on one line, the
 // format document on three). `.nff.gz` is decompressed transparently (zlib).
 #pragma once
 

@@ -5,7 +5,7 @@
 // (database.h) turns it into the tracing form (triangles, spheres, cones with
 // material ids) that the grid, the tracer and the parallel modes use.
 // Source: Eric Haines, "Neutral File Format" (SPD 3.14) and
-// ../shared/scenes/NFF-NOTES.md.
+// docs/nff.md.
 #pragma once
 
 #include <cstddef>
@@ -38,7 +38,7 @@ struct Light {
 };
 
 /// NFF `v` block: the camera. `angle` is the full field of view in degrees
-/// between the centres of the outer pixels (NFF-NOTES.md, "The view block").
+/// between the centres of the outer pixels (docs/nff.md, "The view block").
 struct View {
   Vec3 from{0.0f, 0.0f, 0.0f};
   Vec3 at{0.0f, 0.0f, -1.0f};

@@ -7,7 +7,7 @@
 // Written against the database-view concept of traverse.h, so every mode
 // (sequential, shared, replicated, svm, dataflow) shades with this code.
 //
-// The model (../shared/scenes/NFF-NOTES.md, "Shading model"; Whitted, "An
+// The model (docs/nff.md, "Shading model"; Whitted, "An
 // Improved Illumination Model for Shaded Display", CACM 1980):
 //   I = I_a*Kd*C + sum_lights vis * I_l * Lc * (Kd*C*max(0,N.L) + Ks*max(0,R.V)^Shine)
 //       + Ks*I_reflect + T*I_refract
@@ -15,7 +15,7 @@
 // * Intensities: each light and the ambient term get sqrt(L)/(2L), L = number
 //   of lights (SPD's suggestion); with no lights the ambient gets 1/2.
 // * Ambient coefficient Ka = Kd (NFF has no Ka).
-// * Highlight weight = Ks (NFF-NOTES gotcha 4); skipped when Ks = 0 or when
+// * Highlight weight = Ks (docs/nff.md, "Shading model"); skipped when Ks = 0 or when
 //   Shine >= 100000 (the "no highlight" marker). The highlight is white times
 //   the light colour.
 // * Two-sided shading: the normal is face-forwarded towards the incoming ray

@@ -265,7 +265,7 @@ TEST_CASE("spd teapot: cusp triangles dropped and cusp normals straight up (lid)
 }
 
 TEST_CASE("spd teapot: pp geometric normal (v1-v0)x(v2-v0) agrees with the vertex normals") {
-  // NFF-NOTES.md claims this for every teapot `pp`. It holds from SPD's
+  // The NFF notes claim this for every teapot `pp`. It holds from SPD's
   // default size 6 up (checked through 64), and in teapot-s7/s8, but NOT at
   // sizes 2..5: at size 2, 28 vertex normals in 16 triangles on the spout tip
   // (x >= 2.8) and the lid knob (z >= 2.98) point away from their coarse
