@@ -1,5 +1,5 @@
 # Finds OpenImageIO through pkg-config: Debian 12's OpenImageIOConfig.cmake
-# fails without openimageio-tools and opencv headers (../shared/TOOLCHAIN.md).
+# fails without openimageio-tools and opencv headers, which a build does not need.
 # Defines OpenImageIO_FOUND and the target OpenImageIO::OpenImageIO.
 find_package(PkgConfig QUIET)
 if(PkgConfig_FOUND)

@@ -54,7 +54,7 @@ TEST_CASE("determinism: sequential, shared, replicated and svm images are byte-i
       CHECK(same_bytes(core::render(b.db, b.grid, rp).color, seq.color));
 #if !defined(__SANITIZE_THREAD__)
       // Shared mode runs on TBB, which ThreadSanitizer cannot see into (false
-      // reports inside libtbb, ../shared/TOOLCHAIN.md): checked in the other builds.
+      // reports inside the uninstrumented libtbb): checked in the other builds.
       core::RenderParams shared = rp;
       shared.mode = core::RenderMode::kShared;
       shared.tile_size = 4;  // many tiles: threads interleave
