@@ -61,7 +61,7 @@ class OutputFiles {
   std::size_t add(const std::string& path, const std::string& what, bool text = true);
 
   /// Writes `image` for output `id` (format by the extension of its path;
-  /// imageio::write_image's conversions). Throws std::runtime_error.
+  /// imageio::write_image_as's conversions). Throws std::runtime_error.
   void image(std::size_t id, const core::Image& image);
   /// Writes `text` for output `id`. Throws std::runtime_error.
   void text(std::size_t id, const std::string& text);

@@ -1,7 +1,7 @@
 // A plain float image: what the renderer produces and imageio writes.
 //
 // Place in the data flow: render (render.h) -> Image (linear float, no
-// colour management, no file format) -> imageio::write_image. Core knows no
+// colour management, no file format) -> imageio::write_image_as. Core knows no
 // image library; the conversion to 8 bits or to EXR halves/floats happens in
 // imageio/.
 #pragma once

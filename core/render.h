@@ -6,7 +6,7 @@
 // EmbreeView for --accel embree, embree_view.h; svm's PagedView and dataflow's
 // RegionView in their folders)
 // -> render_pixel for each pixel ->
-// core::Image -> imageio::write_image (apps only). Sequential and shared
+// core::Image -> imageio::write_image_as (apps only). Sequential and shared
 // modes compute each pixel with the same code, independent of the thread,
 // so their images are bit-identical.
 //

@@ -96,26 +96,4 @@ void write_image_as(const std::string& format_path, const std::string& file_path
     throw std::runtime_error(fmt::format("{}: {}", path, error));
 }
 
-void write_image(const std::string& path, const core::Image& image) {
-  namespace fs = std::filesystem;
-  // The module picks the format from the final name; the temporary is
-  // written in that format under its own name.
-  const fs::path final_path(path);
-  const fs::path tmp = final_path.parent_path() /
-                       fmt::format(".{}.tmp{}{}", final_path.stem().string(), ::getpid(), final_path.extension().string());
-  auto fail = [&](const std::string& what) {
-    std::error_code ec;
-    fs::remove(tmp, ec);
-    throw std::runtime_error(what);
-  };
-  try {
-    write_image_as(path, tmp.string(), image);
-  } catch (const std::runtime_error& e) {
-    fail(e.what());
-  }
-  std::error_code ec;
-  fs::rename(tmp, final_path, ec);
-  if (ec) fail(fmt::format("{}: cannot rename the temporary file into place: {}", path, ec.message()));
-}
-
 }  // namespace raynode::imageio
