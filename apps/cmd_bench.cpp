@@ -30,6 +30,7 @@ struct BenchOptions {
   int repeat = 3;
   float density = core::GridParams{}.density;
   bool skip_empty = core::GridParams{}.skip_empty;
+  GridChoice grid;  ///< --grid (default adaptive)
   std::uint32_t pack_min = core::kDefaultPackMin;  ///< --pack-cells; 0 = off
   bool json = false;
 };
@@ -88,6 +89,7 @@ void run_bench(const BenchOptions& o) {
     core::GridParams gp;
     gp.density = o.density;
     gp.skip_empty = o.skip_empty;
+    gp.kind = grid_kind_for(o.grid);
     core::Grid grid;
     const double build_s = best_seconds(1, [&] { grid = core::build_grid(db, gp); });
     const core::EmbreeScene embree(db);
@@ -121,6 +123,8 @@ void run_bench(const BenchOptions& o) {
                         {"primitives", db.primitives.size()},
                         {"grid_resolution", {grid.info.res[0], grid.info.res[1], grid.info.res[2]}},
                         {"grid_references", grid.references()},
+                        {"grid_kind", core::grid_kind_name(grid.kind())},
+                        {"grid", grid_json(grid)},
                         {"grid_build_s", build_s},
                         {"skip_empty", o.skip_empty},
                         {"pack_cells", o.pack_min},
@@ -145,7 +149,9 @@ void run_bench(const BenchOptions& o) {
                  n / embree_s * 1e-6, ratio);
   }
   if (o.json) fmt::print("{}\n", out.dump(2));
-  else fmt::print("ratio = grid time / Embree time (one thread, same rays; lower is better)\n");
+  else fmt::print("ratio = grid time / Embree time (one thread, same rays; lower is better); grid res = the {} grid{}\n",
+                  core::grid_kind_name(grid_kind_for(o.grid)),
+                  grid_kind_for(o.grid) == core::GridKind::kAdaptive ? "'s top grid" : "");
 }
 
 }  // namespace
@@ -155,7 +161,7 @@ void register_bench_command(CLI::App& app) {
   bench->require_subcommand(1);
   auto o = std::make_shared<BenchOptions>();
   CLI::App* c = bench->add_subcommand(
-      "accel", "Rays/s of the uniform grid vs Embree, one thread, same rays (primary, shadow, mirror)");
+      "accel", "Rays/s of the grid (--grid) vs Embree, one thread, same rays (primary, shadow, mirror)");
   c->add_option("scenes", o->scenes, "Scenes (NFF files or SPD name[:size])")->required();
   c->add_option("--tessellate,-t", o->tessellate, "Tessellate spheres and cones (SPD -t R)")
       ->check(CLI::Range(0, 1000));
@@ -163,6 +169,7 @@ void register_bench_command(CLI::App& app) {
   c->add_option("--height", o->height, "Image height for primary rays")->check(CLI::Range(1, 8192));
   c->add_option("--repeat", o->repeat, "Runs per accelerator; the best is kept")->check(CLI::Range(1, 100));
   c->add_option("--grid-density", o->density, "Grid cells per primitive")->check(finite_range(0.01, 1000));
+  add_grid_option(*c, o->grid);
   add_skip_empty_option(*c, o->skip_empty);
   add_pack_cells_option(*c, o->pack_min);
   c->add_flag("--json", o->json, "Print JSON");

@@ -55,6 +55,7 @@ struct RenderOptions {
   std::string mode = "sequential";
   std::string accel = "grid";
   bool skip_empty = core::GridParams{}.skip_empty;
+  GridChoice grid;  ///< --grid (default adaptive; uniform in svm and dataflow)
   std::uint32_t pack_min = core::kDefaultPackMin;  ///< --pack-cells; 0 = off
   bool pack_given = false;  ///< --pack-cells was on the command line (svm packs only when asked)
   int nodes = 1;
@@ -201,6 +202,7 @@ Accelerator build_accelerator(const RenderOptions& o, const core::Database& db) 
   const auto t0 = std::chrono::steady_clock::now();
   core::GridParams gp;
   gp.skip_empty = o.skip_empty;
+  gp.kind = grid_kind_for(o.grid, {o.mode});
   if (o.accel == "embree") {
     a.embree = std::make_unique<core::EmbreeScene>(db);
   } else {
@@ -326,6 +328,8 @@ void run_render(const RenderOptions& o) {
     throw UsageError("output '" + o.output + "' has no extension to choose the image format");
   if (!imageio::can_write_format(o.output))
     throw UsageError("no image writer for the extension of '" + o.output + "' (try .png, .exr, .tif, .ppm)");
+  (void)grid_kind_for(o.grid, {o.mode});  // --grid adaptive with svm or dataflow: exit 2 before any work
+  if (o.grid.given && o.accel == "embree") throw UsageError("--grid is for --accel grid; --accel embree builds no grid");
   // Every output is declared, checked and given its temporary before any
   // work; the AOVs' files are those the options can produce.
   OutputFiles files(core::is_scene_file(o.source.spec) ? std::vector<std::string>{o.source.spec}
@@ -450,6 +454,7 @@ void run_render(const RenderOptions& o) {
     };
     if (accel.grid) {
       j["grid_resolution"] = {accel.grid->info.res[0], accel.grid->info.res[1], accel.grid->info.res[2]};
+      j["grid"] = grid_json(*accel.grid);
       j["skip_empty"] = o.skip_empty;
       // svm packs its paged database, not the host's grid.
       const bool svm = !extras.svm.is_null();
@@ -524,6 +529,7 @@ void register_render_command(CLI::App& app) {
                 "differ only where the two pick different primitives)")
       ->check(CLI::IsMember({"grid", "embree"}))
       ->capture_default_str();
+  add_grid_option(*c, o->grid);
   add_skip_empty_option(*c, o->skip_empty);
   add_pack_cells_option(*c, o->pack_min);
   c->add_option("--width", o->width, "Image width in pixels (default: the scene's view)")->check(CLI::Range(1, 16384));

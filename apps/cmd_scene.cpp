@@ -17,7 +17,7 @@ namespace {
 struct InfoOptions {
   core::SceneSource source;
   bool json = false;
-  bool grid = false;
+  std::string grid;  ///< --grid [adaptive|uniform]: "" = no grid, "adaptive" when given bare
 };
 
 struct WriteOptions {
@@ -47,13 +47,13 @@ void run_info(const InfoOptions& o) {
                    {"cones", dc.cones},
                    {"bytes", db.bytes()},
                    {"dropped_degenerate_triangles", db.dropped_degenerate_triangles}};
-  if (o.grid) {
-    const core::Grid g = core::build_grid(db);
-    j["grid"] = {{"resolution", {g.info.res[0], g.info.res[1], g.info.res[2]}},
-                 {"cells", g.info.cell_count()},
-                 {"empty_cells", g.empty_cells()},
-                 {"references", g.references()},
-                 {"bytes", g.bytes()}};
+  std::string grid_line;
+  if (!o.grid.empty()) {
+    core::GridParams gp;
+    gp.kind = o.grid == "uniform" ? core::GridKind::kUniform : core::GridKind::kAdaptive;
+    const core::Grid g = core::build_grid(db, gp);
+    j["grid"] = grid_json(g);
+    grid_line = fmt::format("{}, {} empty leaf cells", grid_summary(g), g.empty_cells());
   }
   if (o.json) {
     fmt::print("{}\n", j.dump(2));
@@ -66,10 +66,7 @@ void run_info(const InfoOptions& o) {
   if (c.dropped_degenerate) fmt::print("dropped     {} zero-area polygons\n", c.dropped_degenerate);
   fmt::print("database    {} triangles, {} spheres, {} cones, {:.1f} KiB\n", dc.triangles, dc.spheres, dc.cones,
              db.bytes() / 1024.0);
-  if (o.grid)
-    fmt::print("grid        {}x{}x{} cells, {} references, {} empty cells\n", j["grid"]["resolution"][0].get<int>(),
-               j["grid"]["resolution"][1].get<int>(), j["grid"]["resolution"][2].get<int>(),
-               j["grid"]["references"].get<std::size_t>(), j["grid"]["empty_cells"].get<std::size_t>());
+  if (!o.grid.empty()) fmt::print("grid        {}\n", grid_line);
 }
 
 }  // namespace
@@ -82,8 +79,15 @@ void register_scene_commands(CLI::App& app) {
   CLI::App* ci = scene->add_subcommand("info", "Print counts per entity kind (as the SPD programs count them)");
   add_scene_options(*ci, info->source);
   ci->add_flag("--json", info->json, "Print JSON instead of text");
-  ci->add_flag("--grid", info->grid, "Also build the uniform grid and print its resolution and occupancy");
-  ci->callback([info] { run_info(*info); });
+  ci->add_option("--grid", info->grid,
+                 "Also build the grid (adaptive, the default when given bare, or uniform) and print its "
+                 "resolution and occupancy")
+      ->expected(0, 1)
+      ->check(CLI::IsMember({"adaptive", "uniform"}));
+  ci->callback([ci, info] {
+    if (ci->count("--grid") > 0 && info->grid.empty()) info->grid = "adaptive";
+    run_info(*info);
+  });
 
   auto wr = std::make_shared<WriteOptions>();
   CLI::App* cw = scene->add_subcommand("write", "Write a scene as NFF (.nff, or .nff.gz for gzip)");

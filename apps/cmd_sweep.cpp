@@ -292,7 +292,7 @@ struct SweepFrame {
   }
 };
 
-SweepFrame make_frame(const std::string& kind, SweepOptions& o) {
+SweepFrame make_frame(const std::string& kind, SweepOptions& o, const std::vector<std::string>& modes) {
   if (o.full) o.run.width = o.run.height = 512;
   SweepFrame f;
   f.kind = kind;
@@ -308,6 +308,7 @@ SweepFrame make_frame(const std::string& kind, SweepOptions& o) {
   f.db = core::make_database(scene);
   core::GridParams gp;
   gp.skip_empty = o.run.skip_empty;
+  gp.kind = grid_kind_for(o.run.grid, modes);
   f.grid = core::build_grid(f.db, gp);
   return f;
 }
@@ -445,7 +446,7 @@ void run_sweep_nodes(NodesSweepOptions& o) {
     counts.insert(counts.begin(), 1);
     fmt::print(stderr, "sweep nodes: note: added 1 to --nodes: T_1 is each mode's own one-node run\n");
   }
-  SweepFrame f = make_frame("nodes", o);
+  SweepFrame f = make_frame("nodes", o, modes);
   f.total = modes.size() * counts.size();
   Table t(concat(concat({"scene", "mode", "nodes"}, run_columns()), concat({"page_size"}, setting_columns())));
   f.table = &t;  // saved to PREFIX.csv after every run
@@ -496,7 +497,7 @@ struct CacheSweepOptions : SweepOptions {
 
 void run_sweep_cache(CacheSweepOptions& o) {
   const std::vector<CachePoint> points = parse_cache_points(o.cache);
-  SweepFrame f = make_frame("cache", o);
+  SweepFrame f = make_frame("cache", o, {"svm"});
   f.total = points.size() + 1;
   Table t(concat(concat({"scene", "role", "mode", "nodes", "page_size", "cache", "cache_pages", "cache_percent",
                          "pages_total"},
@@ -552,7 +553,7 @@ void run_sweep_page_size(PageSizeSweepOptions& o) {
     if (c.size() != 1) throw UsageError("--cache: sweep page-size takes one cache size, got '" + o.cache + "'");
     cache = c.front();
   }
-  SweepFrame f = make_frame("page-size", o);
+  SweepFrame f = make_frame("page-size", o, {"svm"});
   f.total = 2 * sizes.size();
   Table t(concat(concat({"scene", "role", "mode", "nodes", "page_size", "cache", "cache_pages", "cache_percent",
                          "pages_total"},

@@ -21,6 +21,7 @@ struct ValidateOptions {
   core::ValidateParams params;
   float density = core::GridParams{}.density;
   bool skip_empty = core::GridParams{}.skip_empty;
+  GridChoice grid;  ///< --grid (default adaptive)
 };
 
 nlohmann::json counts_json(const core::ValidateCounts& c) {
@@ -45,6 +46,7 @@ void run_validate(const ValidateOptions& o) {
   core::GridParams gp;
   gp.density = o.density;
   gp.skip_empty = o.skip_empty;
+  gp.kind = grid_kind_for(o.grid);
   const core::Grid grid = core::build_grid(db, gp);
   const core::EmbreeScene embree(db);
   const core::ValidateReport r = [&] {
@@ -61,6 +63,7 @@ void run_validate(const ValidateOptions& o) {
     j["tessellate"] = o.source.tessellate;
     j["primitives"] = db.primitives.size();
     j["grid_resolution"] = {grid.info.res[0], grid.info.res[1], grid.info.res[2]};
+    j["grid"] = grid_json(grid);
     j["pack_cells"] = o.params.pack_min;
     j["t_rel_tolerance"] = o.params.t_rel;
     j["primary"] = counts_json(r.primary);
@@ -82,8 +85,8 @@ void run_validate(const ValidateOptions& o) {
     j["examples"] = ex;
     fmt::print("{}\n", j.dump(2));
   } else {
-    fmt::print("validate {}: {} primitives, grid {}x{}x{}, t tolerance {} relative\n", o.source.spec,
-               db.primitives.size(), grid.info.res[0], grid.info.res[1], grid.info.res[2], o.params.t_rel);
+    fmt::print("validate {}: {} primitives, grid {}, t tolerance {} relative\n", o.source.spec,
+               db.primitives.size(), grid_summary(grid), o.params.t_rel);
     fmt::print("{:<10} {:>9} {:>9} {:>9} {:>10} {:>11} {:>10} {:>10} {:>12} {:>11}\n", "rays", "count", "grid hit",
                "embree", "mismatch", "hit/miss", "miss/hit", "t", "max t err", "oracle err");
     auto row = [](const char* name, const core::ValidateCounts& c) {
@@ -114,7 +117,7 @@ void register_validate_command(CLI::App& app) {
   auto o = std::make_shared<ValidateOptions>();
   CLI::App* c = app.add_subcommand(
       "validate",
-      "Fire >= 1M rays (primary, random, secondary from real hit points) through the uniform grid and "
+      "Fire >= 1M rays (primary, random, secondary from real hit points) through the grid (--grid) and "
       "Embree and count mismatches; exit 1 if any");
   add_scene_options(*c, o->source);
   c->add_flag("--json", o->json, "Print the counts as JSON");
@@ -126,6 +129,7 @@ void register_validate_command(CLI::App& app) {
       ->check(finite_range(0, 1));
   c->add_option("--grid-density", o->density, "Grid cells per primitive (resolution heuristic)")
       ->check(finite_range(0.01, 1000));
+  add_grid_option(*c, o->grid);
   add_skip_empty_option(*c, o->skip_empty);
   add_pack_cells_option(*c, o->params.pack_min);
   c->callback([o] { run_validate(*o); });

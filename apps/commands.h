@@ -5,13 +5,16 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json_fwd.hpp>
 
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "core/grid.h"
 #include "core/scene_source.h"
 
 namespace raynode::apps {
@@ -36,6 +39,28 @@ void add_scene_options(CLI::App& cmd, core::SceneSource& source);
 /// Adds --skip-empty on|off (core::GridParams::skip_empty) to a subcommand;
 /// `skip_empty` must outlive the parse.
 void add_skip_empty_option(CLI::App& cmd, bool& skip_empty);
+
+/// --grid as given on the command line (unset: the command's default).
+struct GridChoice {
+  std::optional<core::GridKind> given;  ///< the value of --grid, if given
+};
+/// Adds --grid adaptive|uniform (core::GridKind) to a subcommand; `choice`
+/// must outlive the parse.
+void add_grid_option(CLI::App& cmd, GridChoice& choice);
+/// The grid kind for runs in `modes` ("sequential", "shared", "replicated",
+/// "svm", "dataflow"; none for commands without modes: validate, bench
+/// accel), all on one grid: the one given, else adaptive, except when a
+/// mode is svm or dataflow, which page and partition only the uniform grid.
+/// Throws UsageError (exit 2) for --grid adaptive with svm or dataflow.
+core::GridKind grid_kind_for(const GridChoice& choice, const std::vector<std::string>& modes = {});
+
+/// The grid's description for JSON outputs (stats, scene info, bench):
+/// kind, top resolution, cells, leaf cells, sub-grids, depth, references,
+/// empty leaf cells, bytes.
+nlohmann::json grid_json(const core::Grid& grid);
+/// One line: "adaptive 24x24x24 top grid, 1234 sub-grids (depth 2), 98765
+/// leaf cells, 123456 references" or "uniform 64x64x64, 123456 references".
+std::string grid_summary(const core::Grid& grid);
 
 /// Adds --pack-cells N|off (core/cell_blocks.h: cells listing at least N
 /// triangles are tested in SIMD blocks; 0 = off) to a subcommand;

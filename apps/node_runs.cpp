@@ -21,6 +21,7 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 
 void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) {
+  add_grid_option(c, o.grid);
   add_skip_empty_option(c, o.skip_empty);
   c.add_option("--width", o.width, "Image width in pixels")->check(CLI::Range(1, 16384))->capture_default_str();
   c.add_option("--height", o.height, "Image height in pixels")->check(CLI::Range(1, 16384))->capture_default_str();

@@ -28,6 +28,7 @@
 #include <utility>
 #include <vector>
 
+#include "apps/commands.h"
 #include "core/database.h"
 #include "core/grid.h"
 #include "core/render.h"
@@ -71,6 +72,7 @@ struct NodeRunOptions {
   double timeout_s = 0;                 ///< per run, wall seconds; 0 = none
   int repeat = 1;                       ///< runs per point; the lowest T_p is kept
   bool skip_empty = true;               ///< grid: empty-space jumps (core::GridParams::skip_empty)
+  GridChoice grid;                      ///< --grid (uniform when a mode is svm or dataflow)
   // svm
   std::uint32_t page_size = 1024;       ///< bytes
   std::string directory_order = "auto"; ///< auto, linear or bricked (svm::parse_directory_order)
@@ -88,7 +90,7 @@ struct NodeRunOptionSet {
 
 /// Adds --width, --height, --node-memory, --network, --network-scale,
 /// --topology, --work-item, --schedule-window, --clock, --timeout, --repeat,
-/// --skip-empty and (per `set`) the svm and dataflow options to `cmd`, with `o`'s
+/// --grid, --skip-empty and (per `set`) the svm and dataflow options to `cmd`, with `o`'s
 /// current values as the defaults shown in --help. `o` must outlive `cmd`.
 void add_node_run_options(CLI::App& cmd, NodeRunOptions& o, NodeRunOptionSet set = {});
 

@@ -1,5 +1,5 @@
 // The options several subcommands share (commands.h): the scene, the grid
-// walk's empty-space jumps, packed cells, and the check that no option is
+// kind, the grid walk's empty-space jumps, packed cells, and the check that no option is
 // given to a mode that ignores it.
 #include <fmt/core.h>
 
@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <limits>
+#include <nlohmann/json.hpp>
 
 #include "apps/commands.h"
 #include "core/cell_blocks.h"
@@ -39,6 +40,48 @@ void add_skip_empty_option(CLI::App& cmd, bool& skip_empty) {
          "Grid walk: on = jump over empty space (Chebyshev distances kept in empty cells); off = step cell by "
          "cell, as the paper's tracer (same hits, more cells visited) [default: on]")
       ->check(CLI::IsMember({"on", "off"}));
+}
+
+void add_grid_option(CLI::App& cmd, GridChoice& choice) {
+  cmd.add_option_function<std::string>(
+         "--grid",
+         [&choice](const std::string& v) {
+           choice.given = v == "uniform" ? core::GridKind::kUniform : core::GridKind::kAdaptive;
+         },
+         "Grid: adaptive = a coarse top grid whose dense cells hold their own sub-grids (Jevans & Wyvill 1989; "
+         "Kalojanov et al. 2011); uniform = one resolution for the whole scene, the paper's [default: adaptive; "
+         "uniform in svm and dataflow, which read only that]")
+      ->check(CLI::IsMember({"adaptive", "uniform"}));
+}
+
+core::GridKind grid_kind_for(const GridChoice& choice, const std::vector<std::string>& modes) {
+  const auto uniform_only = std::find_if(modes.begin(), modes.end(),
+                                         [](const std::string& m) { return m == "svm" || m == "dataflow"; });
+  if (!choice.given) return uniform_only != modes.end() ? core::GridKind::kUniform : core::GridKind::kAdaptive;
+  if (uniform_only != modes.end() && *choice.given == core::GridKind::kAdaptive)
+    throw UsageError("--grid adaptive: " + *uniform_only +
+                     " mode reads only the uniform grid (leave --grid out or use --grid uniform)");
+  return *choice.given;
+}
+
+nlohmann::json grid_json(const core::Grid& grid) {
+  return {{"kind", core::grid_kind_name(grid.kind())},
+          {"resolution", {grid.info.res[0], grid.info.res[1], grid.info.res[2]}},
+          {"cells", grid.info.cell_count()},
+          {"leaf_cells", grid.leaf_cells()},
+          {"sub_grids", grid.sub_grid_count()},
+          {"depth", grid.depth()},
+          {"references", grid.references()},
+          {"empty_cells", grid.empty_cells()},
+          {"bytes", grid.bytes()}};
+}
+
+std::string grid_summary(const core::Grid& grid) {
+  const auto& r = grid.info.res;
+  if (grid.kind() == core::GridKind::kUniform)
+    return fmt::format("uniform {}x{}x{}, {} references", r[0], r[1], r[2], grid.references());
+  return fmt::format("adaptive {}x{}x{} top grid, {} sub-grids (depth {}), {} leaf cells, {} references", r[0], r[1],
+                     r[2], grid.sub_grid_count(), grid.depth(), grid.leaf_cells(), grid.references());
 }
 
 void add_pack_cells_option(CLI::App& cmd, std::uint32_t& pack_min) {

@@ -11,7 +11,7 @@ CellBlocks build_cell_blocks(const Database& db, const Grid& grid, std::uint32_t
   if (min_triangles == 0) throw std::invalid_argument("build_cell_blocks: min_triangles must be at least 1");
   CellBlocks out;
   out.min_triangles = min_triangles;
-  const std::uint32_t cells = grid.info.cell_count();
+  const std::uint32_t cells = grid.leaf_cells();  // uniform: every cell; adaptive: the leaf cells
   out.start.assign(std::size_t(cells) + 1, 0);
   const auto packed = [&](std::uint32_t c) {
     const std::uint32_t b = grid.cell_start[c], e = grid.cell_start[c + 1];

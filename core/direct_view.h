@@ -2,7 +2,8 @@
 // sequential, shared and replicated modes (docs/architecture.md, "One tracer, several
 // data views"): the host's Database + Grid, or a node's own copy of the
 // same arrays in its arena (DatabaseArrays). Cheap to copy; refers to, does
-// not own, the arrays, which must outlive it.
+// not own, the arrays, which must outlive it. Uniform or adaptive grid: the
+// cells it reads lists of are leaf cells (grid.h, Grid).
 #pragma once
 
 #include <cstdint>
@@ -28,12 +29,16 @@ struct DatabaseArrays {
   GridInfo grid;
   std::span<const std::uint32_t> block_start = {};  ///< CellBlocks::start, or empty: no packed cell
   std::span<const TriangleBlock> blocks = {};       ///< CellBlocks::blocks
+  std::span<const SubGrid> sub_grids = {};          ///< Grid::sub_grids (adaptive), or empty: uniform
+  std::span<const std::uint32_t> cell_entries = {};  ///< Grid::cell_entries (adaptive), or empty
 
   /// The arrays of a host database and grid, and the grid's packed cells
   /// if `blocks` is given (built from the same db and grid).
   static DatabaseArrays of(const Database& db, const Grid& grid, const CellBlocks* blocks = nullptr) {
     DatabaseArrays a{db.primitives, db.vertex_normals, db.materials, grid.cell_start, grid.cell_primitives,
                      grid.empty_distance, grid.info};
+    a.sub_grids = grid.sub_grids;
+    a.cell_entries = grid.cell_entries;
     if (blocks) {
       a.block_start = blocks->start;
       a.blocks = blocks->blocks;
@@ -44,7 +49,7 @@ struct DatabaseArrays {
   std::size_t bytes() const {
     return primitives.size_bytes() + vertex_normals.size_bytes() + materials.size_bytes() + cell_start.size_bytes() +
            cell_primitives.size_bytes() + empty_distance.size_bytes() + block_start.size_bytes() +
-           blocks.size_bytes();
+           blocks.size_bytes() + sub_grids.size_bytes() + cell_entries.size_bytes();
   }
 };
 
@@ -56,6 +61,9 @@ class DirectView {
   explicit DirectView(const DatabaseArrays& arrays) : a_(arrays) {}
 
   const GridInfo& grid_info() const { return a_.grid; }
+  /// The adaptive grid's sub-grids (empty for a uniform grid); the cells
+  /// below are then leaf cells (Grid).
+  SubGridTables sub_grid_tables() const { return {a_.sub_grids, a_.cell_entries}; }
   template <class F>
   std::uint32_t for_each_in_cell(std::uint32_t cell, F&& f) const {
     if (const std::uint32_t d = a_.empty_distance[cell]) return d;

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <span>
+#include <stdexcept>
 #include <string>
 
 #include "core/stop.h"
@@ -19,6 +21,14 @@ Bounds3 GridInfo::cell_bounds(int x, int y, int z) const {
     b.upper[a] = (c[a] + 1 == res[a]) ? bounds.upper[a] : bounds.lower[a] + (c[a] + 1) * cell_size[a];
   }
   return b;
+}
+
+const char* grid_kind_name(GridKind kind) { return kind == GridKind::kAdaptive ? "adaptive" : "uniform"; }
+
+std::uint32_t Grid::depth() const {
+  std::uint32_t d = 0;
+  for (const SubGrid& s : sub_grids) d = std::max(d, s.level);
+  return d;
 }
 
 std::size_t Grid::empty_cells() const {
@@ -108,49 +118,116 @@ bool triangle_overlaps_box(const Vec3& v0, const Vec3& v1, const Vec3& v2, const
   return tri_box_sat(v, c, h);
 }
 
-Grid build_grid(const Database& db, const GridParams& params) {
-  Grid grid;
-  GridInfo& info = grid.info;
-  Bounds3 b = db.bounds;
-  if (b.empty()) b = Bounds3{{-1, -1, -1}, {1, 1, 1}};
-  // Pad: a flat scene still gets a cell of some thickness, and primitives on
-  // the boundary lie strictly inside.
-  const float emax = std::max(max_component(b.extent()), 1e-20f);
-  const float mag = std::max(max_component(abs(b.lower)), max_component(abs(b.upper)));
-  const float pad = std::max(1e-4f * emax, 16.0f * std::numeric_limits<float>::epsilon() * mag);
-  b.lower -= Vec3{pad, pad, pad};
-  b.upper += Vec3{pad, pad, pad};
-  info.bounds = b;
-  choose_grid_resolution(b, db.primitives.size(), params, info.res);
+namespace {
+
+// Conservative cell membership of primitive `p` in the grid `info` whose
+// cells are inflated by eps[a] on axis a: calls f(x, y, z) for every cell
+// its surface may touch, in z, y, x order, and poll() every 4096 cells.
+template <class F, class Poll>
+void for_each_overlapped_cell(const GridInfo& info, const double eps[3], const Primitive& p, std::size_t& work,
+                              F&& f, Poll&& poll) {
+  const Bounds3& b = info.bounds;
+  const Bounds3 pb = p.bounds();
+  int lo[3], hi[3];
   for (int a = 0; a < 3; ++a) {
-    info.cell_size[a] = (b.upper[a] - b.lower[a]) / float(info.res[a]);
-    info.inv_cell_size[a] = 1.0f / info.cell_size[a];
+    const double l = (double(pb.lower[a]) - eps[a] - b.lower[a]) * info.inv_cell_size[a];
+    const double h = (double(pb.upper[a]) + eps[a] - b.lower[a]) * info.inv_cell_size[a];
+    lo[a] = clamped_floor(l, info.res[a]);
+    hi[a] = clamped_floor(h, info.res[a]);
   }
-  const std::uint32_t ncells = info.cell_count();
-
-  // Inflation of each cell for conservative membership.
-  const double mag_eps = 8.0 * std::numeric_limits<float>::epsilon() *
-                         std::max(max_component(abs(b.lower)), max_component(abs(b.upper)));
-  double eps[3];
-  for (int a = 0; a < 3; ++a) eps[a] = 1e-4 * info.cell_size[a] + mag_eps;
-
-  auto cell_range = [&](const Bounds3& pb, int lo[3], int hi[3]) {
-    for (int a = 0; a < 3; ++a) {
-      const double l = (double(pb.lower[a]) - eps[a] - b.lower[a]) * info.inv_cell_size[a];
-      const double h = (double(pb.upper[a]) + eps[a] - b.lower[a]) * info.inv_cell_size[a];
-      lo[a] = clamped_floor(l, info.res[a]);
-      hi[a] = clamped_floor(h, info.res[a]);
-    }
-  };
   auto cell_box = [&](int x, int y, int z, double c[3], double h[3]) {
     const int idx[3] = {x, y, z};
     for (int a = 0; a < 3; ++a) {
-      const double lo = double(b.lower[a]) + double(idx[a]) * info.cell_size[a];
-      const double hi = double(b.lower[a]) + double(idx[a] + 1) * info.cell_size[a];
-      c[a] = 0.5 * (lo + hi);
-      h[a] = 0.5 * (hi - lo) + eps[a];
+      const double l = double(b.lower[a]) + double(idx[a]) * info.cell_size[a];
+      const double u = double(b.lower[a]) + double(idx[a] + 1) * info.cell_size[a];
+      c[a] = 0.5 * (l + u);
+      h[a] = 0.5 * (u - l) + eps[a];
     }
   };
+  const bool single = lo[0] == hi[0] && lo[1] == hi[1] && lo[2] == hi[2];
+  double tv[3][3];
+  if (p.kind == PrimitiveKind::kTriangle)
+    for (int i = 0; i < 3; ++i)
+      for (int a = 0; a < 3; ++a) tv[i][a] = p.data[3 * i + a];
+  for (int z = lo[2]; z <= hi[2]; ++z)
+    for (int y = lo[1]; y <= hi[1]; ++y)
+      for (int x = lo[0]; x <= hi[0]; ++x) {
+        if ((++work & 4095u) == 0) poll();
+        bool in = true;
+        if (!single) {
+          double c[3], h[3];
+          cell_box(x, y, z, c, h);
+          if (p.kind == PrimitiveKind::kTriangle) {
+            in = tri_box_sat(tv, c, h);
+          } else if (p.kind == PrimitiveKind::kSphere) {
+            // Arvo: squared distance from the centre to the box <= r^2, and
+            // the box not entirely inside the sphere (the surface must cross it).
+            const double r = std::fabs(double(p.radius()));
+            double dmin = 0, dmax = 0;
+            for (int a = 0; a < 3; ++a) {
+              const double q = double(p.data[a]);
+              const double lo_a = c[a] - h[a], hi_a = c[a] + h[a];
+              const double dl = q - lo_a, dh = hi_a - q;
+              if (q < lo_a) dmin += dl * dl;
+              else if (q > hi_a) dmin += dh * dh;
+              const double far = std::max(std::fabs(dl), std::fabs(dh));
+              dmax += far * far;
+            }
+            in = dmin <= r * r && dmax >= r * r;
+          } else {
+            // Cone: the cell's bounding sphere must reach the capsule
+            // around the axis segment with the larger radius (conservative;
+            // much tighter than the box for long, thin, slanted cylinders).
+            const double b0[3] = {p.data[0], p.data[1], p.data[2]};
+            const double ax[3] = {double(p.data[4]) - b0[0], double(p.data[5]) - b0[1], double(p.data[6]) - b0[2]};
+            const double len2 = ax[0] * ax[0] + ax[1] * ax[1] + ax[2] * ax[2];
+            double s = 0;
+            if (len2 > 0)
+              s = std::clamp(((c[0] - b0[0]) * ax[0] + (c[1] - b0[1]) * ax[1] + (c[2] - b0[2]) * ax[2]) / len2, 0.0,
+                             1.0);
+            double d2 = 0;
+            for (int a = 0; a < 3; ++a) {
+              const double q = b0[a] + s * ax[a] - c[a];
+              d2 += q * q;
+            }
+            const double reach = std::max(std::fabs(double(p.data[3])), std::fabs(double(p.data[7]))) +
+                                 std::sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
+            in = d2 <= reach * reach;
+          }
+        }
+        if (in) f(x, y, z);
+      }
+}
+
+// The inflation of the cells of `info` for conservative membership: 1e-4 of
+// a cell plus 8 ulps of the whole grid's coordinate magnitude.
+void cell_inflation(const GridInfo& info, double mag_eps, double eps[3]) {
+  for (int a = 0; a < 3; ++a) eps[a] = 1e-4 * info.cell_size[a] + mag_eps;
+}
+
+// Sets info.cell_size and inv_cell_size from bounds and res.
+void set_cell_size(GridInfo& info) {
+  for (int a = 0; a < 3; ++a) {
+    info.cell_size[a] = (info.bounds.upper[a] - info.bounds.lower[a]) / float(info.res[a]);
+    info.inv_cell_size[a] = 1.0f / info.cell_size[a];
+  }
+}
+
+double magnitude_eps(const Bounds3& b) {
+  return 8.0 * std::numeric_limits<float>::epsilon() *
+         std::max(max_component(abs(b.lower)), max_component(abs(b.upper)));
+}
+
+Grid build_uniform_grid(const Database& db, const GridParams& params) {
+  Grid grid;
+  GridInfo& info = grid.info;
+  const Bounds3 b = grid_bounds(db);
+  info.bounds = b;
+  choose_grid_resolution(b, db.primitives.size(), params, info.res);
+  set_cell_size(info);
+  const std::uint32_t ncells = info.cell_count();
+  double eps[3];
+  cell_inflation(info, magnitude_eps(b), eps);
 
   // Pass 1 collects (cell, primitive) pairs; a counting sort makes the CSR.
   std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
@@ -165,63 +242,8 @@ Grid build_grid(const Database& db, const GridParams& params) {
   };
   for (std::uint32_t pi = 0; pi < db.primitives.size(); ++pi) {
     if ((pi & 4095u) == 0) poll_stop();
-    const Primitive& p = db.primitives[pi];
-    int lo[3], hi[3];
-    cell_range(p.bounds(), lo, hi);
-    const bool single = lo[0] == hi[0] && lo[1] == hi[1] && lo[2] == hi[2];
-    double tv[3][3];
-    if (p.kind == PrimitiveKind::kTriangle)
-      for (int i = 0; i < 3; ++i)
-        for (int a = 0; a < 3; ++a) tv[i][a] = p.data[3 * i + a];
-    for (int z = lo[2]; z <= hi[2]; ++z)
-      for (int y = lo[1]; y <= hi[1]; ++y)
-        for (int x = lo[0]; x <= hi[0]; ++x) {
-          if ((++work & 4095u) == 0) poll_stop();
-          bool in = true;
-          if (!single) {
-            double c[3], h[3];
-            cell_box(x, y, z, c, h);
-            if (p.kind == PrimitiveKind::kTriangle) {
-              in = tri_box_sat(tv, c, h);
-            } else if (p.kind == PrimitiveKind::kSphere) {
-              // Arvo: squared distance from the centre to the box <= r^2, and
-              // the box not entirely inside the sphere (the surface must cross it).
-              const double r = std::fabs(double(p.radius()));
-              double dmin = 0, dmax = 0;
-              for (int a = 0; a < 3; ++a) {
-                const double q = double(p.data[a]);
-                const double lo_a = c[a] - h[a], hi_a = c[a] + h[a];
-                const double dl = q - lo_a, dh = hi_a - q;
-                if (q < lo_a) dmin += dl * dl;
-                else if (q > hi_a) dmin += dh * dh;
-                const double far = std::max(std::fabs(dl), std::fabs(dh));
-                dmax += far * far;
-              }
-              in = dmin <= r * r && dmax >= r * r;
-            } else {
-              // Cone: the cell's bounding sphere must reach the capsule
-              // around the axis segment with the larger radius (conservative;
-              // much tighter than the box for long, thin, slanted cylinders).
-              const double b0[3] = {p.data[0], p.data[1], p.data[2]};
-              const double ax[3] = {double(p.data[4]) - b0[0], double(p.data[5]) - b0[1],
-                                    double(p.data[6]) - b0[2]};
-              const double len2 = ax[0] * ax[0] + ax[1] * ax[1] + ax[2] * ax[2];
-              double s = 0;
-              if (len2 > 0)
-                s = std::clamp(((c[0] - b0[0]) * ax[0] + (c[1] - b0[1]) * ax[1] + (c[2] - b0[2]) * ax[2]) / len2,
-                               0.0, 1.0);
-              double d2 = 0;
-              for (int a = 0; a < 3; ++a) {
-                const double q = b0[a] + s * ax[a] - c[a];
-                d2 += q * q;
-              }
-              const double reach = std::max(std::fabs(double(p.data[3])), std::fabs(double(p.data[7]))) +
-                                   std::sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
-              in = d2 <= reach * reach;
-            }
-          }
-          if (in) pairs.emplace_back(info.cell_index(x, y, z), pi);
-        }
+    for_each_overlapped_cell(info, eps, db.primitives[pi], work,
+                             [&](int x, int y, int z) { pairs.emplace_back(info.cell_index(x, y, z), pi); }, poll_stop);
   }
   grid.cell_start.assign(std::size_t(ncells) + 1, 0);
   for (const auto& pr : pairs) ++grid.cell_start[pr.first + 1];
@@ -231,6 +253,172 @@ Grid build_grid(const Database& db, const GridParams& params) {
   for (const auto& pr : pairs) grid.cell_primitives[fill[pr.first]++] = pr.second;
   compute_empty_distance(grid, params.skip_empty);
   return grid;
+}
+
+}  // namespace
+
+Bounds3 grid_bounds(const Database& db) {
+  Bounds3 b = db.bounds;
+  if (b.empty()) b = Bounds3{{-1, -1, -1}, {1, 1, 1}};
+  // Pad: a flat scene still gets a cell of some thickness, and primitives on
+  // the boundary lie strictly inside.
+  const float emax = std::max(max_component(b.extent()), 1e-20f);
+  const float mag = std::max(max_component(abs(b.lower)), max_component(abs(b.upper)));
+  const float pad = std::max(1e-4f * emax, 16.0f * std::numeric_limits<float>::epsilon() * mag);
+  b.lower -= Vec3{pad, pad, pad};
+  b.upper += Vec3{pad, pad, pad};
+  return b;
+}
+
+namespace {
+
+// Per-axis resolution of an adaptive grid's box: the cube-root rule over
+// the axes whose cells would be at least one cell thick. An axis on which
+// the rule gives less than one cell gets one, and the cell budget is spread
+// again over the others, so a thin axis gets one cell only when its
+// cells would be thicker than the box is, never because it is thin next to
+// the others (uniform's "flat axis" rule, choose_grid_resolution).
+void choose_adaptive_resolution(const Bounds3& box, double cells, int max_resolution, int res[3]) {
+  const Vec3 e = box.extent();
+  bool live[3] = {e[0] > 0, e[1] > 0, e[2] > 0};
+  res[0] = res[1] = res[2] = 1;
+  cells = std::max(1.0, cells);
+  for (int round = 0; round < 3; ++round) {
+    double volume = 1.0;
+    int n = 0;
+    for (int a = 0; a < 3; ++a)
+      if (live[a]) volume *= e[a], ++n;
+    if (n == 0) return;
+    const double per_unit = std::pow(cells / volume, 1.0 / n);
+    bool dropped = false;
+    for (int a = 0; a < 3; ++a)
+      if (live[a] && double(e[a]) * per_unit < 1.0) live[a] = false, dropped = true;
+    if (dropped) continue;
+    for (int a = 0; a < 3; ++a)
+      if (live[a]) res[a] = std::clamp(int(std::lround(double(e[a]) * per_unit)), 1, std::max(1, max_resolution));
+    return;
+  }
+}
+
+class AdaptiveBuilder {
+ public:
+  AdaptiveBuilder(const Database& db, const GridParams& params, Grid& grid)
+      : db_(db), params_(params), grid_(grid), mag_eps_(magnitude_eps(grid_bounds(db))) {}
+
+  // Builds the grid `info` over `prims` (ascending ids) at `level`; returns
+  // its index in grid.sub_grids.
+  std::uint32_t build(const GridInfo& info, const std::vector<std::uint32_t>& prims, std::uint32_t level) {
+    const auto index = std::uint32_t(grid_.sub_grids.size());
+    const std::uint32_t ncells = info.cell_count();
+    const auto first = std::uint32_t(grid_.cell_entries.size());
+    grid_.sub_grids.push_back(SubGrid{info, first, level});
+    grid_.cell_entries.resize(std::size_t(first) + ncells);
+    double eps[3];
+    cell_inflation(info, mag_eps_, eps);
+    auto poll = [&] {
+      if (stop_requested())
+        throw_if_stopped(fmt::format("building the adaptive grid ({} primitives, {} grids so far)",
+                                     db_.primitives.size(), grid_.sub_grids.size()));
+    };
+    // This grid's cell lists (CSR, by a counting sort of (cell, primitive)).
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
+    pairs.reserve(prims.size() * 2);
+    for (const std::uint32_t pi : prims)
+      for_each_overlapped_cell(info, eps, db_.primitives[pi], work_,
+                               [&](int x, int y, int z) { pairs.emplace_back(info.cell_index(x, y, z), pi); }, poll);
+    Grid local;
+    local.info = info;
+    local.cell_start.assign(std::size_t(ncells) + 1, 0);
+    for (const auto& pr : pairs) ++local.cell_start[pr.first + 1];
+    for (std::uint32_t c = 0; c < ncells; ++c) local.cell_start[c + 1] += local.cell_start[c];
+    local.cell_primitives.resize(pairs.size());
+    {
+      std::vector<std::uint32_t> fill(local.cell_start.begin(), local.cell_start.end() - 1);
+      for (const auto& pr : pairs) local.cell_primitives[fill[pr.first]++] = pr.second;
+    }
+    pairs = {};
+    // A cell holding a sub-grid lists primitives, so it counts as non-empty.
+    compute_empty_distance(local, params_.skip_empty);
+    for (std::uint32_t c = 0; c < ncells; ++c) {
+      const std::uint32_t b = local.cell_start[c], e = local.cell_start[c + 1];
+      GridInfo sub;
+      if (level < std::uint32_t(params_.max_depth) && e - b >= params_.sub_grid_min &&
+          make_sub_grid(info, c, std::span(local.cell_primitives).subspan(b, e - b), sub)) {
+        const std::vector<std::uint32_t> list(local.cell_primitives.begin() + b, local.cell_primitives.begin() + e);
+        const std::uint32_t child = build(sub, list, level + 1);
+        grid_.cell_entries[first + c] = kSubGridEntry | child;
+        continue;
+      }
+      const std::uint32_t leaf = grid_.leaf_cells();
+      if (leaf >= kSubGridEntry) throw std::length_error("build_grid: more than 2^31 leaf cells in the adaptive grid");
+      grid_.cell_primitives.insert(grid_.cell_primitives.end(), local.cell_primitives.begin() + b,
+                                   local.cell_primitives.begin() + e);
+      grid_.cell_start.push_back(std::uint32_t(grid_.cell_primitives.size()));
+      grid_.empty_distance.push_back(local.empty_distance[c]);
+      grid_.cell_entries[first + c] = leaf;
+    }
+    return index;
+  }
+
+ private:
+  // The sub-grid cell c of `info` would hold over `list`, if one pays
+  // (header comment: the cost model); false keeps the cell a leaf.
+  bool make_sub_grid(const GridInfo& info, std::uint32_t c, std::span<const std::uint32_t> list, GridInfo& sub) const {
+    const int x = int(c % std::uint32_t(info.res[0]));
+    const int y = int(c / std::uint32_t(info.res[0]) % std::uint32_t(info.res[1]));
+    const int z = int(c / (std::uint32_t(info.res[0]) * std::uint32_t(info.res[1])));
+    sub.bounds = info.cell_bounds(x, y, z);
+    const double n = double(list.size());
+    choose_adaptive_resolution(sub.bounds, double(params_.density) * n, kMaxSubGridResolution, sub.res);
+    const double m = double(sub.cell_count());
+    if (m < 2) return false;
+    set_cell_size(sub);
+    // Expected references per sub-cell: each primitive covers about
+    // prod_a min(res_a, clipped extent_a / cell_a + 1) cells.
+    double refs = 0;
+    for (const std::uint32_t id : list) {
+      const Bounds3 pb = db_.primitives[id].bounds();
+      double k = 1;
+      for (int a = 0; a < 3; ++a) {
+        const double lo = std::max(double(pb.lower[a]), double(sub.bounds.lower[a]));
+        const double hi = std::min(double(pb.upper[a]), double(sub.bounds.upper[a]));
+        k *= std::min(double(sub.res[a]), std::max(0.0, hi - lo) / sub.cell_size[a] + 1.0);
+      }
+      refs += k;
+    }
+    return refs / m <= kSubGridGain * n;
+  }
+
+  const Database& db_;
+  const GridParams& params_;
+  Grid& grid_;
+  double mag_eps_;
+  std::size_t work_ = 0;
+};
+
+Grid build_adaptive_grid(const Database& db, const GridParams& params) {
+  Grid grid;
+  GridInfo top;
+  top.bounds = grid_bounds(db);
+  if (params.resolution[0] > 0 && params.resolution[1] > 0 && params.resolution[2] > 0) {
+    for (int a = 0; a < 3; ++a) top.res[a] = std::min(params.resolution[a], params.max_resolution);
+  } else {
+    choose_adaptive_resolution(top.bounds, double(params.top_density) * double(db.primitives.size()),
+                               params.max_resolution, top.res);
+  }
+  set_cell_size(top);
+  grid.info = top;
+  grid.cell_start.push_back(0);
+  std::vector<std::uint32_t> all(db.primitives.size());
+  for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
+  AdaptiveBuilder(db, params, grid).build(top, all, 0);
+  return grid;
+}
+
+}  // namespace
+
+Grid build_grid(const Database& db, const GridParams& params) {
+  return params.kind == GridKind::kAdaptive ? build_adaptive_grid(db, params) : build_uniform_grid(db, params);
 }
 
 void compute_empty_distance(Grid& grid, bool skip_empty) {

@@ -28,9 +28,45 @@
 // distance d-1 of it is empty, so the 3D-DDA may jump to the cube's exit
 // (traverse.h). Computed exactly by a two-pass 26-neighbour chamfer scan
 // (the chessboard distance transform, Rosenfeld & Pfaltz 1966).
+//
+// Adaptive grid (GridKind::kAdaptive; adaptive voxel subdivision, Jevans &
+// Wyvill 1989, with per-cell resolutions chosen as in Kalojanov, Billeter &
+// Slusallek, "Two-Level Grids for Ray Tracing on GPUs", EG 2011). A top grid
+// over the same padded box, then, recursively to level max_depth, every
+// cell that lists many primitives gets its own uniform sub-grid over
+// exactly its box. Cost model, per ray crossing a cell that lists n
+// primitives (times in units of one primitive test):
+//   leaf:      C_leaf = n
+//   sub-grid:  C_sub  ~ C_enter + k * (C_step + r),
+// where C_enter (the sub-walk's slab test and 3D-DDA setup) costs a few
+// tests, k ~ cbrt(m) cells of the m-cell sub-grid are crossed, and r is the
+// expected references per sub-cell, r = sum_i prod_a min(res_a,
+// e_ia / cell_a + 1) / m for primitive i's extent e_ia clipped to the cell
+// (a primitive as wide as the cell is listed in every sub-cell). Both
+// resolutions follow Kalojanov's rule, cells = lambda * n with cubic-ish
+// cells: lambda_top = top_density (2) cells per primitive for the top grid,
+// lambda = density (2) per listed primitive for a sub-grid (at most
+// kMaxSubGridResolution per axis). A cell gets a sub-grid only where it
+// pays by the model: n >= sub_grid_min (32: below it C_enter + k * C_step
+// is not won back), at least two sub-cells, and r <= kSubGridGain * n (the
+// sub-grid separates the primitives; overlapping large primitives stay in
+// one leaf, so references cannot multiply level by level). The defaults
+// were chosen with `raynode bench accel` (docs/results.md, "Adaptive
+// grid"): a coarser top grid (lambda_top 1/16, n_min 8, Kalojanov's shape)
+// won a little more on a mesh in a stadium but cost 2-3x on the paper's
+// uniform scenes, where every top cell's sub-walk setup is paid.
+//
+// Per-axis resolutions (adaptive): the cube-root rule over the axes that
+// would get at least one cell; an axis that would get less gets one and the
+// budget is spread again over the others. So a thin axis gets one cell only
+// when a cell would be thicker than the box, never merely because it is
+// thin beside the others (the uniform rule's "flat axis", below 1e-3 of the
+// largest extent, gives a 1000x stadium floor with a mesh on it one cell in
+// height; the adaptive grid's sub-grids over the mesh divide that axis).
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "core/database.h"
@@ -38,8 +74,20 @@
 
 namespace raynode::core {
 
+/// Which grid build_grid makes.
+enum class GridKind : std::uint8_t {
+  kUniform,   ///< one resolution for the whole scene (the paper's; svm and dataflow read only this)
+  kAdaptive,  ///< a coarse top grid whose dense cells hold their own sub-grids (see below)
+};
+/// "uniform" or "adaptive".
+const char* grid_kind_name(GridKind kind);
+
 /// Grid build options.
 struct GridParams {
+  /// Uniform by default here (svm, dataflow and the paper's experiments);
+  /// the CLI's sequential, shared and replicated modes, validate and bench
+  /// accel ask for kAdaptive unless given --grid uniform.
+  GridKind kind = GridKind::kUniform;
   float density = 2.0f;      ///< target cells per primitive (lambda)
   int max_resolution = 512;  ///< cap per axis
   /// Force a resolution (all three > 0) instead of the heuristic.
@@ -47,7 +95,19 @@ struct GridParams {
   /// Record empty-space distances (Grid::empty_distance); false records 1
   /// for every empty cell, so the 3D-DDA steps cell by cell as in the paper.
   bool skip_empty = true;
+  /// Adaptive only: top grid cells per primitive (lambda_top; cost model above).
+  float top_density = 2.0f;
+  /// Adaptive only: a cell listing fewer primitives stays a leaf (n_min).
+  std::uint32_t sub_grid_min = 32;
+  /// Adaptive only: the deepest sub-grid level (the top grid is level 0).
+  int max_depth = 2;
 };
+
+/// Adaptive: the most cells of a sub-grid per axis.
+inline constexpr int kMaxSubGridResolution = 64;
+/// Adaptive: a cell gets a sub-grid only if a sub-cell is expected to list
+/// at most this fraction of the cell's primitives (cost model above).
+inline constexpr double kSubGridGain = 0.5;
 
 /// Cap of Grid::empty_distance (it is stored in a byte).
 inline constexpr std::uint32_t kMaxEmptyDistance = 255;
@@ -68,8 +128,35 @@ struct GridInfo {
   Bounds3 cell_bounds(int x, int y, int z) const;
 };
 
-/// A built grid: GridInfo plus, for cell c, the primitive ids
+/// One grid of an adaptive grid's hierarchy: the top grid (index 0) or the
+/// sub-grid of one cell of a coarser grid. Its cell c's entry is
+/// Grid::cell_entries[first_entry + c]: a leaf cell id, or kSubGridEntry |
+/// the index of the cell's own sub-grid.
+struct SubGrid {
+  GridInfo info;                 ///< bounds: exactly the parent cell's box (GridInfo::cell_bounds)
+  std::uint32_t first_entry = 0;  ///< its cells' entries in Grid::cell_entries
+  std::uint32_t level = 0;        ///< 0 for the top grid, parent's level + 1 below
+};
+/// Tag bit of a cell entry naming a sub-grid (else the entry is a leaf cell id).
+inline constexpr std::uint32_t kSubGridEntry = 0x80000000u;
+
+/// An adaptive grid's hierarchy as a view hands it to the traversal
+/// (traverse.h, walk_cells): both empty for a uniform grid.
+struct SubGridTables {
+  std::span<const SubGrid> sub_grids;        ///< Grid::sub_grids
+  std::span<const std::uint32_t> cell_entries;  ///< Grid::cell_entries
+};
+
+/// A built grid: GridInfo plus, for leaf cell c, the primitive ids
 /// cell_primitives[cell_start[c] .. cell_start[c+1]), ascending.
+///
+/// Uniform (sub_grids empty): the leaf cells are the cells of `info`,
+/// numbered by GridInfo::cell_index. Adaptive (see below): `info` is
+/// the top grid (== sub_grids[0].info); every cell of every grid in
+/// sub_grids is either a leaf cell (numbered globally, in build order) or
+/// holds a sub-grid; cell_start, cell_primitives and empty_distance run over
+/// the leaf cells, so views read a leaf's list as they read a uniform cell's.
+/// A leaf's empty distance counts cells of its own grid.
 struct Grid {
   GridInfo info;
   std::vector<std::uint32_t> cell_start;       ///< cell_count()+1 offsets
@@ -79,12 +166,23 @@ struct Grid {
   /// empty), capped at kMaxEmptyDistance; 1 for every empty cell when built
   /// with skip_empty false.
   std::vector<std::uint8_t> empty_distance;
+  std::vector<SubGrid> sub_grids;            ///< adaptive only: [0] the top grid, then sub-grids
+  std::vector<std::uint32_t> cell_entries;   ///< adaptive only: per cell of every sub-grid (see SubGrid)
+
+  GridKind kind() const { return sub_grids.empty() ? GridKind::kUniform : GridKind::kAdaptive; }
+  /// Leaf cells (== info.cell_count() for a uniform grid).
+  std::uint32_t leaf_cells() const { return cell_start.empty() ? 0 : std::uint32_t(cell_start.size() - 1); }
+  /// Grids below the top one (0 for a uniform grid).
+  std::size_t sub_grid_count() const { return sub_grids.empty() ? 0 : sub_grids.size() - 1; }
+  /// Deepest level (0: no sub-grid).
+  std::uint32_t depth() const;
 
   /// Statistics for reports and benchmarks.
   std::size_t references() const { return cell_primitives.size(); }
   std::size_t empty_cells() const;
   std::size_t bytes() const {
-    return (cell_start.size() + cell_primitives.size()) * sizeof(std::uint32_t) + empty_distance.size();
+    return (cell_start.size() + cell_primitives.size() + cell_entries.size()) * sizeof(std::uint32_t) +
+           empty_distance.size() + sub_grids.size() * sizeof(SubGrid);
   }
 };
 
@@ -92,9 +190,16 @@ struct Grid {
 void choose_grid_resolution(const Bounds3& bounds, std::size_t primitive_count, const GridParams& params,
                             int res[3]);
 
-/// Builds the grid over every primitive of `db`. An empty database gives a
-/// 1x1x1 grid with no references. Deterministic (same input, same lists).
+/// Builds the grid over every primitive of `db` (params.kind: uniform, or
+/// adaptive as build_adaptive_grid). An empty database gives a 1x1x1 grid
+/// with no references. Deterministic (same input, same lists).
 Grid build_grid(const Database& db, const GridParams& params = {});
+
+/// The padded world box both grid kinds cover: db.bounds (or [-1,1]^3 when
+/// empty) grown by max(1e-4 of its largest extent, 16 ulps of its largest
+/// coordinate) on every side.
+Bounds3 grid_bounds(const Database& db);
+
 
 /// Fills grid.empty_distance from grid.cell_start (see Grid); with
 /// skip_empty false, 0 for a non-empty cell and 1 for an empty one.

@@ -17,6 +17,10 @@
 // A view whose cell directory is not in the linear cell order also offers
 //   const CellKeyTables& cell_order() const;  // cell_order.h
 // and then gets each cell by its key in that order (svm's bricked directory).
+// A view of an adaptive grid (grid.h) offers
+//   SubGridTables sub_grid_tables() const;
+// and then gets leaf cell ids (walk_cells); the other views walk the
+// uniform grid of grid_info().
 // DirectView (direct_view.h) is the plain-array one. A reference a view
 // returns may be valid only until the view's next call (svm's PagedView
 // evicts pages): callers keep a copy of what they need across calls, and
@@ -222,9 +226,8 @@ inline constexpr std::uint32_t kMinJumpDistance = 4;
 /// keys, one table read per step; cell_order.h). The cells walked are the
 /// same.
 template <class Order, class Visit>
-inline void walk_grid(const GridInfo& g, const Order& order, const Ray& ray, Visit&& visit) {
+inline void walk_grid(const GridInfo& g, const Order& order, const Ray& ray, const Vec3& inv_v, Visit&& visit) {
   constexpr bool kLinear = std::is_same_v<Order, LinearCellOrder>;
-  const Vec3 inv_v{1.0f / ray.direction.x, 1.0f / ray.direction.y, 1.0f / ray.direction.z};
   float t0, t1;
   if (!intersect_bounds(g.bounds, ray, inv_v, t0, t1)) return;
   const Vec3 p = ray.at(t0);
@@ -353,6 +356,13 @@ inline void walk_grid(const GridInfo& g, const Order& order, const Ray& ray, Vis
   }
 }
 
+/// walk_grid with the ray's reciprocal direction computed here.
+template <class Order, class Visit>
+inline void walk_grid(const GridInfo& g, const Order& order, const Ray& ray, Visit&& visit) {
+  const Vec3 inv_v{1.0f / ray.direction.x, 1.0f / ray.direction.y, 1.0f / ray.direction.z};
+  walk_grid(g, order, ray, inv_v, std::forward<Visit>(visit));
+}
+
 /// walk_grid in the linear cell order.
 template <class Visit>
 inline void walk_grid(const GridInfo& g, const Ray& ray, Visit&& visit) {
@@ -379,6 +389,61 @@ concept has_packed_cells = requires(const View& v, std::uint32_t c) {
   v.visit_cell(c, [](std::uint32_t) {}, [](const CellBlockSpan&) {});
 };
 
+/// Views over an adaptive grid offer sub_grid_tables() (a SubGridTables,
+/// grid.h; empty spans for a uniform grid).
+template <class View>
+concept has_sub_grids = requires(const View& v) {
+  { v.sub_grid_tables() } -> std::convertible_to<SubGridTables>;
+};
+
+namespace detail {
+
+/// walk_cells below one grid of an adaptive hierarchy: walk_grid over
+/// sub_grids[index]; a cell holding a sub-grid is walked in turn (its
+/// bounds are the cell's box, so the inner walk covers the ray's piece in
+/// that cell). Returns false once visit stopped the walk.
+template <class Visit>
+bool walk_sub_grid(const SubGridTables& t, std::uint32_t index, const Ray& ray, const Vec3& inv_v, Visit& visit) {
+  const SubGrid& g = t.sub_grids[index];
+  const std::uint32_t* entries = t.cell_entries.data() + g.first_entry;
+  bool stopped = false;
+  walk_grid(g.info, LinearCellOrder{}, ray, inv_v, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
+    const std::uint32_t e = entries[cell];
+    if (e & kSubGridEntry) [[unlikely]] {
+      if (walk_sub_grid(t, e & ~kSubGridEntry, ray, inv_v, visit)) return 0;
+      stopped = true;
+      return kStopWalk;
+    }
+    const std::uint32_t d = visit(e, t_exit);
+    stopped = d == kStopWalk;
+    return d;
+  });
+  return !stopped;
+}
+
+}  // namespace detail
+
+/// Walks the leaf cells pierced by `ray` in order, calling visit(leaf,
+/// t_exit) as walk_grid does: over the view's uniform grid, or, for a view
+/// of an adaptive grid (has_sub_grids, non-empty tables), by a nested walk
+/// — walk_grid over the top grid and, in each cell holding a sub-grid,
+/// walk_grid over that sub-grid (recursively), each with the 3D-DDA's
+/// determinism and empty-space jumps. A leaf's t_exit is its own exit, so
+/// the closest-hit early exit keeps its meaning; visit's kStopWalk ends
+/// every level. The mailbox dedups primitives listed at several levels.
+template <class View, class Visit>
+inline void walk_cells(const View& view, const Ray& ray, Visit&& visit) {
+  if constexpr (has_sub_grids<View>) {
+    const SubGridTables t = view.sub_grid_tables();
+    if (!t.sub_grids.empty()) {
+      const Vec3 inv_v{1.0f / ray.direction.x, 1.0f / ray.direction.y, 1.0f / ray.direction.z};
+      detail::walk_sub_grid(t, 0, ray, inv_v, visit);
+      return;
+    }
+  }
+  walk_grid(view.grid_info(), cell_order_of(view), ray, visit);
+}
+
 namespace detail {
 
 // The loops below keep the hit, the counters and the mailbox's stamp in
@@ -392,7 +457,7 @@ template <int KX, int KY, int KZ, class View>
   Mailbox::Probe mailbox = scratch.mailbox.probe();
   Hit hit = hit_out;
   bool found = false;
-  walk_grid(view.grid_info(), cell_order_of(view), ray, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
+  walk_cells(view, ray, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
     ++stats.cells_visited;
     const auto listed = [&](std::uint32_t id) {
       if (mailbox.seen_or_insert(id)) {
@@ -427,7 +492,7 @@ template <int KX, int KY, int KZ, class View>
   bool found = false;
   Hit hit;
   hit.t = ray.tmax;
-  walk_grid(view.grid_info(), cell_order_of(view), ray, [&](std::uint32_t cell, float) -> std::uint32_t {
+  walk_cells(view, ray, [&](std::uint32_t cell, float) -> std::uint32_t {
     ++stats.cells_visited;
     const auto listed = [&](std::uint32_t id) {
       if (found) return;

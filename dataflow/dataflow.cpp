@@ -522,6 +522,8 @@ struct Stored {
 }  // namespace
 
 DataflowResult render_dataflow(const core::Database& db, const core::Grid& grid, const DataflowParams& params) {
+  if (grid.kind() != core::GridKind::kUniform || params.grid.kind != core::GridKind::kUniform)
+    throw std::invalid_argument("dataflow: partitions only uniform grids (core::GridKind::kUniform), got an adaptive one");
   const core::RenderParams& rp = params.render;
   if (rp.spp < 1) throw std::invalid_argument("spp must be >= 1");
   if (rp.max_depth < 1 || rp.max_depth > 255) throw std::invalid_argument("max depth must be 1..255");

@@ -225,6 +225,8 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
 
 PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, std::uint32_t page_size,
                              const core::CellBlocks* blocks, DirectoryOrder order) {
+  if (grid.kind() != core::GridKind::kUniform)
+    throw std::invalid_argument("svm: pages only the uniform grid (core::GridKind::kUniform), got an adaptive grid");
   if (grid.empty_distance.size() != grid.info.cell_count())
     throw std::invalid_argument(fmt::format("svm: the grid has {} empty-space distances for {} cells (not built by "
                                             "core::build_grid?)",

@@ -1,0 +1,289 @@
+// The adaptive grid (core/grid.h: a top grid whose dense cells hold their
+// own sub-grids): its hits equal brute force's bit for bit and Embree's on
+// SPD scenes, a small mesh on a huge floor, random soups and degenerate
+// databases; its images equal the uniform grid's; its per-axis resolutions
+// never give a thin-but-populated axis one cell. No timing here (bench accel).
+#include <doctest/doctest.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/database.h"
+#include "core/direct_view.h"
+#include "core/embree_scene.h"
+#include "core/grid.h"
+#include "core/render.h"
+#include "core/scene.h"
+#include "core/scene_source.h"
+#include "core/traverse.h"
+#include "core/validate.h"
+#include "grid_test_support.h"
+
+namespace {
+using namespace raynode::core;
+using namespace raynode::testing::grid;
+
+GridParams adaptive() {
+  GridParams p;
+  p.kind = GridKind::kAdaptive;
+  return p;
+}
+
+// A small random mesh around the origin (size ~2) on a square floor of
+// half-width `floor` at z = -1.5.
+Scene mesh_on_floor(std::uint64_t seed, int triangles, float floor) {
+  Scene s = random_scene(seed, triangles, 0, 0, 0.08f);
+  const Vec3 quad[4] = {{-floor, -floor, -1.5f}, {floor, -floor, -1.5f}, {floor, floor, -1.5f}, {-floor, floor, -1.5f}};
+  s.add_polygon(quad, 4);
+  return s;
+}
+
+// Fires random rays (origins in the grown box, half aimed at a primitive)
+// and rays from inside the mesh through RayChecker.
+void check_random_rays(const Built& b, std::uint64_t seed, int rays, const Bounds3& origins) {
+  RayChecker rc(b);
+  Rng rng(seed);
+  for (int i = 0; i < rays; ++i) {
+    const Vec3 o = random_in(rng, origins);
+    Vec3 d = random_unit(rng);
+    if (i % 2 == 0 && !b.db.primitives.empty()) {
+      const Primitive& p = b.db.primitives[std::uniform_int_distribution<std::size_t>(0, b.db.primitives.size() - 1)(rng)];
+      const Vec3 to = centre_of(p) - o;
+      if (length(to) > 0) d = normalize(to);
+    }
+    rc.check(Ray{o, d, 0.0f, kInfinity});
+  }
+  rc.require_clean();
+}
+
+ValidateReport validate(const Database& db, const Grid& grid) {
+  const EmbreeScene embree(db);
+  ValidateParams vp;
+  vp.width = 48;
+  vp.height = 48;
+  vp.random_rays = 15000;
+  return validate_grid(db, grid, embree, vp);
+}
+
+}  // namespace
+
+TEST_CASE("adaptive grid: SPD scenes agree with Embree (zero mismatches) and hold sub-grids") {
+  const struct {
+    const char* spec;
+    int tessellate;
+  } cases[] = {{"teapot:3", 0}, {"mount:2", 0}, {"mount:1", 1}, {"rings:2", 0}, {"tetra:4", 0}, {"balls:2", 0}};
+  for (const auto& c : cases) {
+    CAPTURE(c.spec);
+    const Database db = make_database(load_scene({c.spec, c.tessellate}));
+    const Grid grid = build_grid(db, adaptive());
+    CHECK(grid.kind() == GridKind::kAdaptive);
+    CHECK(grid.sub_grid_count() > 0);
+    const ValidateReport rep = validate(db, grid);
+    std::string examples;
+    for (const MismatchExample& m : rep.examples)
+      examples += "\n  " + m.set + " " + str(m.ray) + ": grid " + str(m.grid) + ", Embree " + str(m.embree);
+    INFO("mismatching rays:" << examples);
+    CHECK(rep.total.mismatches() == 0);
+    CHECK(rep.primary.grid_hits > 0);
+  }
+}
+
+TEST_CASE("adaptive grid: a small mesh on a floor 1000x its size agrees with brute force and Embree") {
+  const Built b(mesh_on_floor(11, 600, 1000.0f), adaptive());
+  // The mesh's region is refined below the top grid, on all three axes.
+  CHECK(b.grid.depth() >= 1);
+  bool deep_in_z = false;
+  for (const SubGrid& s : b.grid.sub_grids) deep_in_z |= s.level > 0 && s.info.res[2] > 1;
+  CHECK(deep_in_z);
+  check_random_rays(b, 5, 3000, Bounds3{{-3, -3, -1.4f}, {3, 3, 3}});
+  check_random_rays(b, 6, 1000, Bounds3{{-900, -900, -1.4f}, {900, 900, 50}});
+}
+
+TEST_CASE("adaptive grid: random triangle soups with spheres and cones agree with brute force and Embree") {
+  for (std::uint64_t seed : {1, 2, 3}) {
+    CAPTURE(seed);
+    const Built b(random_scene(seed, 500, 30, 20, 0.15f), adaptive());
+    CHECK(b.grid.kind() == GridKind::kAdaptive);
+    check_random_rays(b, seed + 100, 1500, grown(b.db.bounds, 0.5f));
+  }
+  // Clustered: a dense clump inside a sparse soup forces sub-grids.
+  Scene s = random_scene(9, 300, 0, 0, 0.3f);
+  const Scene clump = random_scene(10, 800, 0, 0, 0.01f);
+  for (const Primitive& p : make_database(clump).primitives) {
+    const Vec3 v[3] = {p.vertex(0) * 0.05f, p.vertex(1) * 0.05f, p.vertex(2) * 0.05f};
+    s.add_polygon(v, 3);
+  }
+  const Built b(s, adaptive());
+  CHECK(b.grid.sub_grid_count() > 0);
+  check_random_rays(b, 42, 2000, Bounds3{{-0.2f, -0.2f, -0.2f}, {0.2f, 0.2f, 0.2f}});
+  check_random_rays(b, 43, 1000, grown(b.db.bounds, 0.5f));
+}
+
+TEST_CASE("adaptive grid: packed cells inside sub-grids give the same hits as the lists") {
+  const Built b(mesh_on_floor(12, 800, 300.0f), adaptive());
+  REQUIRE(b.grid.sub_grid_count() > 0);
+  CHECK(b.blocks.blocks.size() > 0);
+  TraversalScratch s1, s2;
+  Rng rng(3);
+  std::size_t hits = 0, differ = 0;
+  for (int i = 0; i < 3000; ++i) {
+    const Vec3 o = random_in(rng, Bounds3{{-4, -4, -1}, {4, 4, 4}});
+    const Ray r{o, random_unit(rng), 0.0f, kInfinity};
+    Hit a, p;
+    const bool fa = intersect_closest(b.view(), r, a, s1);
+    const bool fp = intersect_closest(b.packed_view(), r, p, s2);
+    hits += fa;
+    differ += fa != fp || a.t != p.t || a.primitive != p.primitive;
+  }
+  CHECK(hits > 100);
+  CHECK(differ == 0);
+}
+
+TEST_CASE("adaptive grid: images equal the uniform grid's (byte for byte)") {
+  for (const char* spec : {"teapot:3", "balls:2", "tetra:3"}) {
+    CAPTURE(spec);
+    const Database db = make_database(load_scene({spec, 0}));
+    const Grid uniform = build_grid(db);
+    const Grid adapt = build_grid(db, adaptive());
+    REQUIRE(adapt.kind() == GridKind::kAdaptive);
+    RenderParams rp;
+    rp.width = 64;
+    rp.height = 64;
+    const RenderResult a = render(db, uniform, rp);
+    const RenderResult b = render(db, adapt, rp);
+    REQUIRE(a.color.pixels.size() == b.color.pixels.size());
+    std::size_t differ = 0;
+    for (std::size_t i = 0; i < a.color.pixels.size(); ++i) differ += a.color.pixels[i] != b.color.pixels[i];
+    CHECK(differ == 0);
+  }
+}
+
+TEST_CASE("adaptive grid: an empty database builds one empty top cell and every ray misses") {
+  const Built b(Scene{}, adaptive());
+  CHECK(b.grid.kind() == GridKind::kAdaptive);
+  CHECK(b.grid.info.cell_count() == 1);
+  CHECK(b.grid.leaf_cells() == 1);
+  CHECK(b.grid.references() == 0);
+  TraversalScratch scratch;
+  Hit h;
+  CHECK_FALSE(intersect_closest(b.view(), Ray{{0, 0, -5}, {0, 0, 1}, 0.0f, kInfinity}, h, scratch));
+  CHECK_FALSE(intersect_any(b.view(), Ray{{0, 0, -5}, {0, 0, 1}, 0.0f, kInfinity}, scratch));
+}
+
+TEST_CASE("adaptive grid: one primitive is hit like brute force, from outside and inside the grid") {
+  Scene s;
+  const Vec3 tri[3] = {{-1, -1, 0}, {1, -1, 0}, {0, 1, 0}};
+  s.add_polygon(tri, 3);
+  const Built b(s, adaptive());
+  CHECK(b.grid.references() >= 1);
+  RayChecker rc(b);
+  const Hit h = rc.check(Ray{{0, -0.2f, 3}, {0, 0, -1}, 0.0f, kInfinity});
+  CHECK(h.found());
+  rc.check(Ray{{0, -0.2f, 0.00001f}, {0.1f, 0.05f, -1}, 0.0f, kInfinity});  // starts inside the grid box
+  rc.check(Ray{{5, 5, 5}, {1, 0, 0}, 0.0f, kInfinity});                      // misses
+  rc.require_clean();
+}
+
+TEST_CASE("adaptive grid: all primitives in one top cell are refined in a sub-grid") {
+  GridParams p = adaptive();
+  p.resolution[0] = p.resolution[1] = p.resolution[2] = 1;  // the top grid forced to one cell
+  const Built b(random_scene(21, 600, 0, 0, 0.05f), p);
+  CHECK(b.grid.info.cell_count() == 1);
+  REQUIRE(b.grid.sub_grid_count() >= 1);
+  CHECK(b.grid.cell_entries[0] == (kSubGridEntry | 1u));
+  check_random_rays(b, 22, 1500, grown(b.db.bounds, 0.3f));
+}
+
+TEST_CASE("adaptive grid: a flat scene and an extremely elongated scene agree with brute force and Embree") {
+  Rng rng(31);
+  Scene flat, thin;
+  for (int i = 0; i < 400; ++i) {
+    const float x = uniform(rng, -10, 10), y = uniform(rng, -10, 10);
+    const Vec3 f[3] = {{x, y, 0}, {x + 0.3f, y, 0}, {x, y + 0.3f, 0}};
+    flat.add_polygon(f, 3);
+    const float u = uniform(rng, -5000, 5000);
+    const Vec3 t[3] = {{u, -0.5f, -0.5f}, {u + 2, 0.5f, -0.5f}, {u + 1, 0, 0.5f}};
+    thin.add_polygon(t, 3);
+  }
+  const Built bf(flat, adaptive());
+  const Built bt(thin, adaptive());
+  // The long axis gets many top cells; the flat one's plane is divided.
+  CHECK(bt.grid.info.res[0] > 16);
+  CHECK(bf.grid.info.res[0] > 1);
+  CHECK(bf.grid.info.res[1] > 1);
+  check_random_rays(bf, 32, 1500, Bounds3{{-12, -12, -3}, {12, 12, 3}});
+  check_random_rays(bt, 33, 1500, Bounds3{{-6000, -3, -3}, {6000, 3, 3}});
+}
+
+TEST_CASE("adaptive grid: rays on a top-cell boundary and axis-parallel rays agree with brute force") {
+  const Built b(mesh_on_floor(41, 800, 50.0f), adaptive());
+  REQUIRE(b.grid.info.res[0] > 1);
+  RayChecker rc(b);
+  const GridInfo& top = b.grid.info;
+  Rng rng(42);
+  for (int i = 1; i < top.res[0]; ++i) {
+    // Origins exactly on a top-cell boundary plane x = lower + i * size.
+    const float x = top.bounds.lower.x + float(i) * top.cell_size.x;
+    for (int k = 0; k < 20; ++k) {
+      const Vec3 o{x, uniform(rng, -2, 2), uniform(rng, -1.4f, 2)};
+      rc.check(Ray{o, random_unit(rng), 0.0f, kInfinity});
+      rc.check(Ray{o, {0, 0, -1}, 0.0f, kInfinity});
+      rc.check(Ray{o, {1, 0, 0}, 0.0f, kInfinity});
+      rc.check(Ray{o, {-1, 0, 0}, 0.0f, kInfinity});
+    }
+  }
+  for (int k = 0; k < 300; ++k) {
+    // Axis-parallel rays through the mesh, from outside the grid and from inside.
+    const float a = uniform(rng, -1.2f, 1.2f), c = uniform(rng, -1.2f, 1.2f);
+    rc.check(Ray{{a, c, 100}, {0, 0, -1}, 0.0f, kInfinity});
+    rc.check(Ray{{-100, a, c}, {1, 0, 0}, 0.0f, kInfinity});
+    rc.check(Ray{{a, 100, c}, {0, -1, 0}, 0.0f, kInfinity});
+    rc.check(Ray{{a, c, 0.0f}, {0, 1, 0}, 0.0f, kInfinity});
+  }
+  CHECK(rc.hits > 500);
+  rc.require_clean();
+}
+
+TEST_CASE("adaptive grid: --grid uniform's grid is today's uniform grid, unchanged") {
+  const Database db = make_database(load_scene({"teapot:3", 0}));
+  GridParams p;
+  p.kind = GridKind::kUniform;
+  const Grid u = build_grid(db, p);
+  const Grid d = build_grid(db);  // GridParams' default kind
+  CHECK(u.kind() == GridKind::kUniform);
+  CHECK(u.sub_grids.empty());
+  CHECK(u.cell_entries.empty());
+  CHECK(u.leaf_cells() == u.info.cell_count());
+  CHECK(u.cell_start == d.cell_start);
+  CHECK(u.cell_primitives == d.cell_primitives);
+  CHECK(u.empty_distance == d.empty_distance);
+}
+
+TEST_CASE("adaptive grid: every leaf cell is reached exactly once from the top grid") {
+  const Built b(mesh_on_floor(51, 1000, 200.0f), adaptive());
+  std::vector<int> seen(b.grid.leaf_cells(), 0);
+  for (const SubGrid& s : b.grid.sub_grids)
+    for (std::uint32_t c = 0; c < s.info.cell_count(); ++c) {
+      const std::uint32_t e = b.grid.cell_entries[s.first_entry + c];
+      if (!(e & kSubGridEntry)) {
+        REQUIRE(e < seen.size());
+        ++seen[e];
+      } else {
+        // A sub-grid covers exactly its parent cell's box.
+        const SubGrid& child = b.grid.sub_grids[e & ~kSubGridEntry];
+        const int x = int(c % std::uint32_t(s.info.res[0]));
+        const int y = int(c / std::uint32_t(s.info.res[0]) % std::uint32_t(s.info.res[1]));
+        const int z = int(c / (std::uint32_t(s.info.res[0]) * std::uint32_t(s.info.res[1])));
+        const Bounds3 cb = s.info.cell_bounds(x, y, z);
+        CHECK(child.level == s.level + 1);
+        for (int a = 0; a < 3; ++a) {
+          CHECK(child.info.bounds.lower[a] == cb.lower[a]);
+          CHECK(child.info.bounds.upper[a] == cb.upper[a]);
+        }
+      }
+    }
+  std::size_t bad = 0;
+  for (int n : seen) bad += n != 1;
+  CHECK(bad == 0);
+}
