@@ -47,14 +47,15 @@
 // cells: lambda_top = top_density (2) cells per primitive for the top grid,
 // lambda = density (2) per listed primitive for a sub-grid (at most
 // kMaxSubGridResolution per axis). A cell gets a sub-grid only where it
-// pays by the model: n >= sub_grid_min (32: below it C_enter + k * C_step
-// is not won back), at least two sub-cells, and r <= kSubGridGain * n (the
+// pays by the model: n >= sub_grid_min (128: a leaf's triangles are tested
+// 8 at a time in packed cells, so below it C_enter + k * C_step is not won
+// back; 32 made Tetra9 1.5-2x slower), at least two sub-cells, and r <= kSubGridGain * n (the
 // sub-grid separates the primitives; overlapping large primitives stay in
 // one leaf, so references cannot multiply level by level). The defaults
 // were chosen with `raynode bench accel` (docs/results.md, "Adaptive
 // grid"): a coarser top grid (lambda_top 1/16, n_min 8, Kalojanov's shape)
 // won a little more on a mesh in a stadium but cost 2-3x on the paper's
-// uniform scenes, where every top cell's sub-walk setup is paid.
+// evenly filled scenes, where every top cell's sub-walk setup is paid.
 //
 // Per-axis resolutions (adaptive): the cube-root rule over the axes that
 // would get at least one cell; an axis that would get less gets one and the
@@ -98,7 +99,7 @@ struct GridParams {
   /// Adaptive only: top grid cells per primitive (lambda_top; cost model above).
   float top_density = 2.0f;
   /// Adaptive only: a cell listing fewer primitives stays a leaf (n_min).
-  std::uint32_t sub_grid_min = 32;
+  std::uint32_t sub_grid_min = 128;
   /// Adaptive only: the deepest sub-grid level (the top grid is level 0).
   int max_depth = 2;
 };

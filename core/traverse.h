@@ -403,7 +403,8 @@ namespace detail {
 /// bounds are the cell's box, so the inner walk covers the ray's piece in
 /// that cell). Returns false once visit stopped the walk.
 template <class Visit>
-bool walk_sub_grid(const SubGridTables& t, std::uint32_t index, const Ray& ray, const Vec3& inv_v, Visit& visit) {
+[[gnu::noinline]] bool walk_sub_grid(const SubGridTables& t, std::uint32_t index, const Ray& ray, const Vec3& inv_v,
+                                     Visit& visit) {
   const SubGrid& g = t.sub_grids[index];
   const std::uint32_t* entries = t.cell_entries.data() + g.first_entry;
   bool stopped = false;
@@ -436,8 +437,17 @@ inline void walk_cells(const View& view, const Ray& ray, Visit&& visit) {
   if constexpr (has_sub_grids<View>) {
     const SubGridTables t = view.sub_grid_tables();
     if (!t.sub_grids.empty()) {
+      // The top grid's walk is inlined here, so that its leaves are visited
+      // with the caller's hit and counters in registers; only a cell holding
+      // a sub-grid calls out (walk_sub_grid, recursive).
       const Vec3 inv_v{1.0f / ray.direction.x, 1.0f / ray.direction.y, 1.0f / ray.direction.z};
-      detail::walk_sub_grid(t, 0, ray, inv_v, visit);
+      const std::uint32_t* entries = t.cell_entries.data() + t.sub_grids[0].first_entry;
+      walk_grid(t.sub_grids[0].info, LinearCellOrder{}, ray, inv_v, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
+        const std::uint32_t e = entries[cell];
+        if (e & kSubGridEntry) [[unlikely]]
+          return detail::walk_sub_grid(t, e & ~kSubGridEntry, ray, inv_v, visit) ? 0 : kStopWalk;
+        return visit(e, t_exit);
+      });
       return;
     }
   }
