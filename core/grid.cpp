@@ -339,23 +339,34 @@ class AdaptiveBuilder {
     pairs = {};
     // A cell holding a sub-grid lists primitives, so it counts as non-empty.
     compute_empty_distance(local, params_.skip_empty);
+    // Leaf first + c for every cell c, a placeholder (no list) where the
+    // cell holds a sub-grid; the sub-grids are built after, so that this
+    // grid's leaves stay contiguous (SubGrid).
+    if (grid_.leaf_cells() != first) throw std::logic_error("build_grid: adaptive leaf numbering out of step");
+    if (std::uint64_t(first) + ncells >= kSubGridEntry)
+      throw std::length_error("build_grid: more than 2^31 leaf cells in the adaptive grid");
+    std::vector<std::pair<std::uint32_t, GridInfo>> children;
     for (std::uint32_t c = 0; c < ncells; ++c) {
       const std::uint32_t b = local.cell_start[c], e = local.cell_start[c + 1];
       GridInfo sub;
-      if (level < std::uint32_t(params_.max_depth) && e - b >= params_.sub_grid_min &&
-          make_sub_grid(info, c, std::span(local.cell_primitives).subspan(b, e - b), sub)) {
-        const std::vector<std::uint32_t> list(local.cell_primitives.begin() + b, local.cell_primitives.begin() + e);
-        const std::uint32_t child = build(sub, list, level + 1);
-        grid_.cell_entries[first + c] = kSubGridEntry | child;
-        continue;
+      const bool refine = level < std::uint32_t(params_.max_depth) && e - b >= params_.sub_grid_min &&
+                          make_sub_grid(info, c, std::span(local.cell_primitives).subspan(b, e - b), sub);
+      if (refine) {
+        children.emplace_back(c, sub);
+      } else {
+        grid_.cell_primitives.insert(grid_.cell_primitives.end(), local.cell_primitives.begin() + b,
+                                     local.cell_primitives.begin() + e);
       }
-      const std::uint32_t leaf = grid_.leaf_cells();
-      if (leaf >= kSubGridEntry) throw std::length_error("build_grid: more than 2^31 leaf cells in the adaptive grid");
-      grid_.cell_primitives.insert(grid_.cell_primitives.end(), local.cell_primitives.begin() + b,
-                                   local.cell_primitives.begin() + e);
       grid_.cell_start.push_back(std::uint32_t(grid_.cell_primitives.size()));
-      grid_.empty_distance.push_back(local.empty_distance[c]);
-      grid_.cell_entries[first + c] = leaf;
+      grid_.empty_distance.push_back(refine ? 0 : local.empty_distance[c]);
+      grid_.cell_entries[first + c] = first + c;
+    }
+    for (const auto& [c, sub] : children) {
+      const std::uint32_t b = local.cell_start[c], e = local.cell_start[c + 1];
+      const std::vector<std::uint32_t> list(local.cell_primitives.begin() + b, local.cell_primitives.begin() + e);
+      const std::uint32_t child = build(sub, list, level + 1);
+      grid_.cell_entries[first + c] = kSubGridEntry | child;
+      if (level == 0) grid_.top_sub_grid_bits[c >> 6] |= std::uint64_t(1) << (c & 63);
     }
     return index;
   }
@@ -409,6 +420,7 @@ Grid build_adaptive_grid(const Database& db, const GridParams& params) {
   set_cell_size(top);
   grid.info = top;
   grid.cell_start.push_back(0);
+  grid.top_sub_grid_bits.assign((std::size_t(top.cell_count()) + 63) / 64, 0);
   std::vector<std::uint32_t> all(db.primitives.size());
   for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
   AdaptiveBuilder(db, params, grid).build(top, all, 0);

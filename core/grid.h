@@ -130,9 +130,12 @@ struct GridInfo {
 };
 
 /// One grid of an adaptive grid's hierarchy: the top grid (index 0) or the
-/// sub-grid of one cell of a coarser grid. Its cell c's entry is
-/// Grid::cell_entries[first_entry + c]: a leaf cell id, or kSubGridEntry |
-/// the index of the cell's own sub-grid.
+/// sub-grid of one cell of a coarser grid. Its cell c is leaf cell
+/// first_entry + c, and its entry Grid::cell_entries[first_entry + c] is
+/// that leaf id, or kSubGridEntry | the index of the cell's own sub-grid
+/// (the leaf is then a placeholder listing nothing, never visited). So the
+/// top grid's cell c is leaf c, and the walk reads an entry only for a top
+/// cell that Grid::top_sub_grid_bits marks.
 struct SubGrid {
   GridInfo info;                 ///< bounds: exactly the parent cell's box (GridInfo::cell_bounds)
   std::uint32_t first_entry = 0;  ///< its cells' entries in Grid::cell_entries
@@ -146,6 +149,7 @@ inline constexpr std::uint32_t kSubGridEntry = 0x80000000u;
 struct SubGridTables {
   std::span<const SubGrid> sub_grids;        ///< Grid::sub_grids
   std::span<const std::uint32_t> cell_entries;  ///< Grid::cell_entries
+  std::span<const std::uint64_t> top_sub_grid_bits;  ///< Grid::top_sub_grid_bits
 };
 
 /// A built grid: GridInfo plus, for leaf cell c, the primitive ids
@@ -169,6 +173,10 @@ struct Grid {
   std::vector<std::uint8_t> empty_distance;
   std::vector<SubGrid> sub_grids;            ///< adaptive only: [0] the top grid, then sub-grids
   std::vector<std::uint32_t> cell_entries;   ///< adaptive only: per cell of every sub-grid (see SubGrid)
+  /// Adaptive only: bit c (word c / 64, bit c % 64) set when the top grid's
+  /// cell c holds a sub-grid; 1 bit a cell, so the top walk's test stays in
+  /// cache where the entries (4 bytes a cell) would not.
+  std::vector<std::uint64_t> top_sub_grid_bits;
 
   GridKind kind() const { return sub_grids.empty() ? GridKind::kUniform : GridKind::kAdaptive; }
   /// Leaf cells (== info.cell_count() for a uniform grid).
@@ -183,7 +191,8 @@ struct Grid {
   std::size_t empty_cells() const;
   std::size_t bytes() const {
     return (cell_start.size() + cell_primitives.size() + cell_entries.size()) * sizeof(std::uint32_t) +
-           empty_distance.size() + sub_grids.size() * sizeof(SubGrid);
+           empty_distance.size() + sub_grids.size() * sizeof(SubGrid) +
+           top_sub_grid_bits.size() * sizeof(std::uint64_t);
   }
 };
 

@@ -441,12 +441,14 @@ inline void walk_cells(const View& view, const Ray& ray, Visit&& visit) {
       // with the caller's hit and counters in registers; only a cell holding
       // a sub-grid calls out (walk_sub_grid, recursive).
       const Vec3 inv_v{1.0f / ray.direction.x, 1.0f / ray.direction.y, 1.0f / ray.direction.z};
-      const std::uint32_t* entries = t.cell_entries.data() + t.sub_grids[0].first_entry;
+      // The top grid's cell c is leaf c (SubGrid); its entry is read only
+      // where the bit says it holds a sub-grid.
+      const std::uint32_t* entries = t.cell_entries.data();
+      const std::uint64_t* bits = t.top_sub_grid_bits.data();
       walk_grid(t.sub_grids[0].info, LinearCellOrder{}, ray, inv_v, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
-        const std::uint32_t e = entries[cell];
-        if (e & kSubGridEntry) [[unlikely]]
-          return detail::walk_sub_grid(t, e & ~kSubGridEntry, ray, inv_v, visit) ? 0 : kStopWalk;
-        return visit(e, t_exit);
+        if ((bits[cell >> 6] >> (cell & 63)) & 1) [[unlikely]]
+          return detail::walk_sub_grid(t, entries[cell] & ~kSubGridEntry, ray, inv_v, visit) ? 0 : kStopWalk;
+        return visit(cell, t_exit);
       });
       return;
     }
