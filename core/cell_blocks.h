@@ -128,9 +128,11 @@ inline void block_triangle(const TriangleBlock& b, std::uint32_t l, Vec3& v0, Ve
 }
 
 /// Finishes a candidate lane as intersect_triangle_axes does after its sign
-/// test, on the lane's u, v, e: true with `hit` when tmin < t < tmax.
+/// test, on the lane's u, v, e: true with `hit` when tmin < t < tmax. Out
+/// of line (candidates are rare): the block loop stays small and keeps its
+/// state in registers.
 template <int KX, int KY, int KZ>
-inline bool finish_lane(const Ray& ray, const WatertightRay& w, const TriangleBlock& b, std::uint32_t l, float u,
+[[gnu::noinline]] bool finish_lane(const Ray& ray, const WatertightRay& w, const TriangleBlock& b, std::uint32_t l, float u,
                         float v, float e, float tmax, TriangleHit& hit) {
   Vec3 v0, v1, v2;
   block_triangle(b, l, v0, v1, v2);

@@ -257,6 +257,34 @@ struct TriangleRayLanes {
 #endif
 };
 
+#if defined(__SSE2__)
+namespace detail {
+
+/// The end of intersect_triangle_record_axes for a candidate (the ray's line
+/// crosses the triangle, or an edge function is 0: rare), out of line so
+/// that the per-primitive loop it is called from stays small and keeps its
+/// state in registers. Lanes as there: U = (u, v, e), X and Y the sheared
+/// vertices, ckz their z relative to the origin, sz = 1/d_z.
+template <int KX, int KY, int KZ>
+[[gnu::noinline]] bool finish_triangle_lanes(const Ray& ray, const WatertightRay& w, const float* v, __m128 U,
+                                             __m128 X, __m128 Y, __m128 ckz, __m128 sz, float tmax,
+                                             TriangleHit& hit) {
+  if (_mm_movemask_ps(_mm_cmpeq_ps(U, _mm_setzero_ps())) & 7) [[unlikely]]  // an edge function is 0: double fallback
+    return intersect_triangle_axes<KX, KY, KZ>(ray, w, Vec3{v[0], v[1], v[2]}, Vec3{v[3], v[4], v[5]},
+                                               Vec3{v[6], v[7], v[8]}, tmax, hit);
+  alignas(16) float uve[4], z[4], xs[4], ys[4], zr[4];
+  _mm_store_ps(uve, U);
+  _mm_store_ps(z, _mm_mul_ps(sz, ckz));
+  _mm_store_ps(xs, X);
+  _mm_store_ps(ys, Y);
+  _mm_store_ps(zr, ckz);
+  return finish_watertight(ray, uve[0], uve[1], uve[2], xs, ys, zr, z[0], z[1], z[2], tmax, Vec3{v[0], v[1], v[2]},
+                           Vec3{v[3], v[4], v[5]}, Vec3{v[6], v[7], v[8]}, hit);
+}
+
+}  // namespace detail
+#endif
+
 /// The watertight triangle test of intersect_triangle_axes on a triangle
 /// record's vertex array `v` (v0.xyz v1.xyz v2.xyz, as in Primitive::data;
 /// 12 floats must be readable, the last 3 are ignored), with the shear and
@@ -288,18 +316,7 @@ template <int KX, int KY, int KZ>
   const __m128 U = _mm_sub_ps(_mm_mul_ps(x2, y1), _mm_mul_ps(y2, x1));
   const int neg = _mm_movemask_ps(_mm_cmplt_ps(U, zero)) & 7, pos = _mm_movemask_ps(_mm_cmpgt_ps(U, zero)) & 7;
   if (neg && pos) return false;
-  if (_mm_movemask_ps(_mm_cmpeq_ps(U, zero)) & 7) [[unlikely]]  // an edge function is 0: double fallback
-    return intersect_triangle_axes<KX, KY, KZ>(ray, w, Vec3{v[0], v[1], v[2]}, Vec3{v[3], v[4], v[5]},
-                                               Vec3{v[6], v[7], v[8]}, tmax, hit);
-  // The ray's line crosses the triangle (rare): finish in scalar, on the same values.
-  alignas(16) float uve[4], z[4], xs[4], ys[4], zr[4];
-  _mm_store_ps(uve, U);
-  _mm_store_ps(z, _mm_mul_ps(lanes.sz, ckz));
-  _mm_store_ps(xs, X);
-  _mm_store_ps(ys, Y);
-  _mm_store_ps(zr, ckz);
-  return detail::finish_watertight(ray, uve[0], uve[1], uve[2], xs, ys, zr, z[0], z[1], z[2], tmax,
-                                   Vec3{v[0], v[1], v[2]}, Vec3{v[3], v[4], v[5]}, Vec3{v[6], v[7], v[8]}, hit);
+  return detail::finish_triangle_lanes<KX, KY, KZ>(ray, w, v, U, X, Y, ckz, lanes.sz, tmax, hit);
 #else
   return intersect_triangle_axes<KX, KY, KZ>(ray, w, Vec3{v[0], v[1], v[2]}, Vec3{v[3], v[4], v[5]},
                                              Vec3{v[6], v[7], v[8]}, tmax, hit);
