@@ -737,7 +737,8 @@ void register_bench_quality_command(CLI::App& app) {
       "spp 0, unknown accelerator, too many points).\n"
       "Example: raynode bench quality rings:4 --max-depth 1,2,3,5,8 --spp 1,2 --design star -o rings-quality");
   c->add_option("scene", o->scene,
-                "NFF file (.nff, .nff.gz) or built-in SPD scene name[:size]: teapot, mount, rings, tetra, balls")
+                "NFF file (.nff, .nff.gz) or built-in SPD scene name[:size]: teapot, mount, rings, tetra, balls, "
+                "gears, tree, lattice, shells, jacks, sombrero")
       ->required();
   c->add_option("--max-depth", o->max_depths, "Ray levels to try (eye ray = 1), comma-separated, each in [1, 64]")
       ->capture_default_str();

@@ -15,8 +15,8 @@ namespace raynode::apps {
 
 void add_scene_options(CLI::App& cmd, core::SceneSource& source) {
   cmd.add_option("scene", source.spec,
-                 "NFF file (.nff, .nff.gz) or built-in SPD scene name[:size]: teapot, mount, rings, tetra, balls "
-                 "(e.g. teapot:8, mount:6, tetra:9)")
+                 "NFF file (.nff, .nff.gz) or built-in SPD scene name[:size]: teapot, mount, rings, tetra, balls, "
+                 "gears, tree, lattice, shells, jacks, sombrero (e.g. teapot:8, mount:6, tetra:9)")
       ->required();
   cmd.add_option("--tessellate,-t", source.tessellate,
                  "Replace spheres by 12*R^2 and cones by 8*R triangles, as SPD's -t R (0 = curved)")

@@ -18,13 +18,20 @@ struct Generator {
   Scene (*make)(int size);
 };
 
-// In the order SPD 3.14 lists them.
+// The original five in the order SPD 3.14 lists them, then the rest of its
+// generators.
 constexpr Generator kGenerators[] = {
     {"teapot", 6, spd::make_teapot},
     {"mount", 6, spd::make_mount},
     {"rings", 7, spd::make_rings},
     {"tetra", 6, spd::make_tetra},
     {"balls", 4, spd::make_balls},
+    {"gears", 4, spd::make_gears},
+    {"tree", 11, spd::make_tree},
+    {"lattice", 12, spd::make_lattice},
+    {"shells", 5, spd::make_shells},
+    {"jacks", 1, spd::make_jacks},
+    {"sombrero", 1, spd::make_sombrero},
 };
 
 const Generator* find_generator(std::string_view name) {
@@ -49,6 +56,18 @@ std::string valid_names() {
 }
 
 }  // namespace
+
+namespace spd {
+
+void check_spd_size(const char* name, int size, int min_size, int max_size) {
+  if (size < min_size || size > max_size) {
+    throw std::invalid_argument(std::string(name) + ": size " + std::to_string(size) +
+                                " is out of range " + std::to_string(min_size) + ".." +
+                                std::to_string(max_size));
+  }
+}
+
+}  // namespace spd
 
 std::vector<std::string> spd_names() {
   std::vector<std::string> out;

@@ -368,9 +368,10 @@ TEST_CASE("spd: tessellate_scene counts a huge resolution without wrapping round
   CHECK_THROWS_AS(tessellate_scene(scene, 2147483647), std::invalid_argument);
 }
 
-TEST_CASE("spd: spd_names lists the five generators") {
+TEST_CASE("spd: spd_names lists the eleven generators of SPD 3.14") {
   const std::vector<std::string> names = spd_names();
-  CHECK(names == std::vector<std::string>{"teapot", "mount", "rings", "tetra", "balls"});
+  CHECK(names == std::vector<std::string>{"teapot", "mount", "rings", "tetra", "balls", "gears",
+                                          "tree", "lattice", "shells", "jacks", "sombrero"});
 }
 
 TEST_CASE("spd: parse_spd_spec reads name and optional size") {
