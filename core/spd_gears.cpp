@@ -53,14 +53,14 @@ void add_gear(Scene& scene, const D3& center, double offset_angle, double outer_
     const double angle = offset_angle + 2.0 * kSpdPi * t / kTeeth;
     add_tooth(angle, tooth_angle, center, outer_radius, inner_radius, 0.0, &pts[4 * t]);
   }
-  for (int i = 0; i < kGearPoints; ++i) face[i] = to_vec3(pts[i]);
+  for (int i = 0; i < kGearPoints; ++i) face[i] = as_vec3(pts[i]);
   scene.add_polygon(face.data(), kGearPoints);
 
   for (int i = 0; i < kGearPoints; ++i) {
     const D3& a = pts[i];
     const D3& b = pts[(i + 1) % kGearPoints];
-    const Vec3 side[4] = {to_vec3(a), to_vec3({a.x, a.y, a.z - thickness}),
-                          to_vec3({b.x, b.y, b.z - thickness}), to_vec3(b)};
+    const Vec3 side[4] = {as_vec3(a), as_vec3({a.x, a.y, a.z - thickness}),
+                          as_vec3({b.x, b.y, b.z - thickness}), as_vec3(b)};
     scene.add_polygon(side, 4);
   }
 
@@ -68,7 +68,7 @@ void add_gear(Scene& scene, const D3& center, double offset_angle, double outer_
     const double angle = offset_angle - 2.0 * kSpdPi * t / kTeeth;
     add_tooth(angle, -tooth_angle, center, outer_radius, inner_radius, -thickness, &pts[4 * t]);
   }
-  for (int i = 0; i < kGearPoints; ++i) face[i] = to_vec3(pts[i]);
+  for (int i = 0; i < kGearPoints; ++i) face[i] = as_vec3(pts[i]);
   scene.add_polygon(face.data(), kGearPoints);
 }
 
@@ -81,7 +81,7 @@ Scene make_gears(int size) {
   set_spd_view(scene, {-1.1, -2.1, 2.6}, {0.0, 0.0, 0.0}, {0.0, 0.0, 1.0}, 45.0, 1.0, 512, 512);
   for (const D3& l : {D3{2.0, 4.0, 4.0}, D3{-2.0, 4.0, 3.0}, D3{2.0, -2.5, 2.5},
                       D3{-1.0, -4.0, 2.0}, D3{-1.111, -2.121, 2.626}}) {
-    scene.lights.push_back(Light{to_vec3(l)});
+    scene.lights.push_back(Light{as_vec3(l)});
   }
 
   // Off-white reflective ground: kd 0.3, ks 0.6, highlight 37 degrees.

@@ -95,7 +95,7 @@ inline D3 transform_point(const D3& p, const Mat4& m) {
 }
 
 /// The float point of a double one (SPD computes in double, raynode stores float).
-inline Vec3 to_vec3(const D3& p) {
+inline Vec3 as_vec3(const D3& p) {
   return {static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)};
 }
 
@@ -105,7 +105,7 @@ inline Vec3 to_vec3(const D3& p) {
 inline Material spd_material(const D3& color, double kd, double ks, double half_angle_deg,
                              double kt, double ior) {
   Material m;
-  m.color = to_vec3(color);
+  m.color = as_vec3(color);
   m.kd = static_cast<float>(kd);
   m.ks = static_cast<float>(ks);
   m.shine = static_cast<float>(phong_power(half_angle_deg));
@@ -119,9 +119,9 @@ inline Material spd_material(const D3& color, double kd, double ks, double half_
 inline void set_spd_view(Scene& scene, const D3& from, const D3& at, const D3& up,
                          double angle_deg, double hither, int width, int height) {
   scene.has_view = true;
-  scene.view.from = to_vec3(from);
-  scene.view.at = to_vec3(at);
-  scene.view.up = to_vec3(up);
+  scene.view.from = as_vec3(from);
+  scene.view.at = as_vec3(at);
+  scene.view.up = as_vec3(up);
   scene.view.angle = static_cast<float>(angle_deg);
   scene.view.hither = static_cast<float>(hither);
   scene.view.width = width;

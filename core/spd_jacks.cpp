@@ -34,12 +34,12 @@ void add_jack(Scene& scene, const Mat4& frame) {
   const float sphere_radius = static_cast<float>(0.2 * scale);
   static constexpr D3 kAxis[3] = {{1.0, 0.0, 0.0}, {0.0, 1.0, 0.0}, {0.0, 0.0, 1.0}};
   for (const D3& a : kAxis) {
-    scene.add_cone(Cone{to_vec3(transform_point({-a.x, -a.y, -a.z}, m)), cylinder_radius,
-                        to_vec3(transform_point(a, m)), cylinder_radius});
+    scene.add_cone(Cone{as_vec3(transform_point({-a.x, -a.y, -a.z}, m)), cylinder_radius,
+                        as_vec3(transform_point(a, m)), cylinder_radius});
   }
-  for (const D3& a : kAxis) scene.add_sphere(Sphere{to_vec3(transform_point(a, m)), sphere_radius});
+  for (const D3& a : kAxis) scene.add_sphere(Sphere{as_vec3(transform_point(a, m)), sphere_radius});
   for (const D3& a : kAxis) {
-    scene.add_sphere(Sphere{to_vec3(transform_point({-a.x, -a.y, -a.z}, m)), sphere_radius});
+    scene.add_sphere(Sphere{as_vec3(transform_point({-a.x, -a.y, -a.z}, m)), sphere_radius});
   }
 }
 

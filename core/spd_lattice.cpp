@@ -37,7 +37,7 @@ Scene make_lattice(int size) {
                {0.2, 1.0, 0.0}, 60.0, 0.0, 512, 512);
   for (const D3& l : {D3{2.0, 0.5, 0.5}, D3{-1.0, 0.5, 0.5}, D3{0.5, 2.0, 0.5},
                       D3{0.5, -1.0, 0.5}, D3{0.5, 0.5, 2.0}, D3{0.5, 0.5, -1.0}}) {
-    scene.lights.push_back(Light{to_vec3(l)});
+    scene.lights.push_back(Light{as_vec3(l)});
   }
 
   // Shiny grey spheres: kd 0.5, ks 0.5, highlight 37 degrees. Cylinders
@@ -56,21 +56,21 @@ Scene make_lattice(int size) {
       for (int z = 0; z <= size; ++z) {
         const double z0 = z / s;
         scene.materials.push_back(sphere_material);
-        scene.add_sphere(Sphere{to_vec3({x0, y0, z0}), static_cast<float>(sphere_radius)});
+        scene.add_sphere(Sphere{as_vec3({x0, y0, z0}), static_cast<float>(sphere_radius)});
         if (x != size) {
           scene.materials.push_back(axis_material[0]);
-          scene.add_cone(Cone{to_vec3({x0 + inset, y0, z0}), r_cyl,
-                              to_vec3({x0 + cell - inset, y0, z0}), r_cyl});
+          scene.add_cone(Cone{as_vec3({x0 + inset, y0, z0}), r_cyl,
+                              as_vec3({x0 + cell - inset, y0, z0}), r_cyl});
         }
         if (y != size) {
           scene.materials.push_back(axis_material[1]);
-          scene.add_cone(Cone{to_vec3({x0, y0 + inset, z0}), r_cyl,
-                              to_vec3({x0, y0 + cell - inset, z0}), r_cyl});
+          scene.add_cone(Cone{as_vec3({x0, y0 + inset, z0}), r_cyl,
+                              as_vec3({x0, y0 + cell - inset, z0}), r_cyl});
         }
         if (z != size) {
           scene.materials.push_back(axis_material[2]);
-          scene.add_cone(Cone{to_vec3({x0, y0, z0 + inset}), r_cyl,
-                              to_vec3({x0, y0, z0 + cell - inset}), r_cyl});
+          scene.add_cone(Cone{as_vec3({x0, y0, z0 + inset}), r_cyl,
+                              as_vec3({x0, y0, z0 + cell - inset}), r_cyl});
         }
       }
     }

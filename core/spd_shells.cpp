@@ -46,7 +46,7 @@ Scene make_shells(int size) {
     const double r = kRelativeSize * std::exp(kExponent * angle);
     const double z = kAlpha > 0.0 ? kAlpha * angle : kBeta * r;
     scene.add_sphere(
-        Sphere{to_vec3({r * std::sin(angle), r * std::cos(angle), z}), static_cast<float>(r / kGamma)});
+        Sphere{as_vec3({r * std::sin(angle), r * std::cos(angle), z}), static_cast<float>(r / kGamma)});
   }
   return scene;
 }

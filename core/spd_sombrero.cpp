@@ -63,10 +63,10 @@ Scene make_sombrero(int size) {
   scene.vertices.reserve(3 * triangles);
   for (int i = 0; i < n - 1; ++i) {
     for (int j = 0; j < n - 1; ++j) {
-      const Vec3 corner = to_vec3({x0 + j * dx, y0 + height(i, j), z0 + i * dz});
-      const Vec3 far = to_vec3({x0 + (j + 1) * dx, y0 + height(i + 1, j + 1), z0 + (i + 1) * dz});
-      const Vec3 right = to_vec3({x0 + (j + 1) * dx, y0 + height(i, j + 1), z0 + i * dz});
-      const Vec3 up = to_vec3({x0 + j * dx, y0 + height(i + 1, j), z0 + (i + 1) * dz});
+      const Vec3 corner = as_vec3({x0 + j * dx, y0 + height(i, j), z0 + i * dz});
+      const Vec3 far = as_vec3({x0 + (j + 1) * dx, y0 + height(i + 1, j + 1), z0 + (i + 1) * dz});
+      const Vec3 right = as_vec3({x0 + (j + 1) * dx, y0 + height(i, j + 1), z0 + i * dz});
+      const Vec3 up = as_vec3({x0 + j * dx, y0 + height(i + 1, j), z0 + (i + 1) * dz});
       const Vec3 first[3] = {corner, far, right};
       const Vec3 second[3] = {corner, up, far};
       scene.add_polygon(first, 3);

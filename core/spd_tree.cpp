@@ -46,9 +46,9 @@ void grow(Scene& scene, const std::array<Mat4, 2>& branch, const Mat4& m, double
   const D3 apex = transform_point({0.0, 0.0, 1.0}, m);
   const double base_radius = scale * kWidthHeightRatio;
   const double apex_radius = base_radius * kDiameterRatio;
-  scene.add_cone(Cone{to_vec3(base), static_cast<float>(base_radius), to_vec3(apex),
+  scene.add_cone(Cone{as_vec3(base), static_cast<float>(base_radius), as_vec3(apex),
                       static_cast<float>(apex_radius)});
-  scene.add_sphere(Sphere{to_vec3(apex), static_cast<float>(apex_radius)});
+  scene.add_sphere(Sphere{as_vec3(apex), static_cast<float>(apex_radius)});
   if (depth <= 0) return;
   for (const Mat4& b : branch) grow(scene, branch, b * m, scale * kDiameterRatio, depth - 1);
 }
@@ -63,7 +63,7 @@ Scene make_tree(int size) {
   for (const D3& l : {D3{-5.0, 5.0, 50.0}, D3{30.0, -30.0, 30.0}, D3{-40.0, -30.0, 20.0},
                       D3{10.0, 30.0, 40.0}, D3{-30.0, 40.0, 10.0}, D3{50.0, 25.0, 20.0},
                       D3{-10.0, -60.0, 30.0}}) {
-    scene.lights.push_back(Light{to_vec3(l)});
+    scene.lights.push_back(Light{as_vec3(l)});
   }
 
   // Green diffuse field.
