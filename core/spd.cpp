@@ -16,6 +16,9 @@ struct Generator {
   const char* name;
   int default_size;  // the SPD program's own default size factor
   Scene (*make)(int size);
+  // For -t R when tessellate_scene's world-space tessellation would differ
+  // from SPD's (primitives written through a transform); null otherwise.
+  Scene (*make_tessellated)(int size, int resolution) = nullptr;
 };
 
 // The original five in the order SPD 3.14 lists them, then the rest of its
@@ -30,7 +33,7 @@ constexpr Generator kGenerators[] = {
     {"tree", 11, spd::make_tree},
     {"lattice", 12, spd::make_lattice},
     {"shells", 5, spd::make_shells},
-    {"jacks", 1, spd::make_jacks},
+    {"jacks", 1, spd::make_jacks, spd::make_jacks_tessellated},
     {"sombrero", 1, spd::make_sombrero},
 };
 
@@ -103,7 +106,9 @@ Scene make_spd_scene(const SpdParams& params) {
     throw std::invalid_argument("SPD tessellation " + std::to_string(params.tessellate) +
                                 " must be 0 (curved) or at least 1");
   }
-  Scene scene = g->make(params.size == -1 ? g->default_size : params.size);
+  const int size = params.size == -1 ? g->default_size : params.size;
+  if (params.tessellate > 0 && g->make_tessellated) return g->make_tessellated(size, params.tessellate);
+  Scene scene = g->make(size);
   if (params.tessellate > 0) tessellate_scene(scene, params.tessellate);
   return scene;
 }

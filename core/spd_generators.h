@@ -94,6 +94,13 @@ inline D3 transform_point(const D3& p, const Mat4& m) {
           p.x * m.m[0][2] + p.y * m.m[1][2] + p.z * m.m[2][2] + m.m[3][2]};
 }
 
+/// SPD's lib_transform_vector: p * m without the translation row.
+inline D3 transform_vector(const D3& p, const Mat4& m) {
+  return {p.x * m.m[0][0] + p.y * m.m[1][0] + p.z * m.m[2][0],
+          p.x * m.m[0][1] + p.y * m.m[1][1] + p.z * m.m[2][1],
+          p.x * m.m[0][2] + p.y * m.m[1][2] + p.z * m.m[2][2]};
+}
+
 /// The float point of a double one (SPD computes in double, raynode stores float).
 inline Vec3 as_vec3(const D3& p) {
   return {static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)};
@@ -141,6 +148,11 @@ Scene make_tree(int size);      ///< spd_tree.cpp
 Scene make_lattice(int size);   ///< spd_lattice.cpp
 Scene make_shells(int size);    ///< spd_shells.cpp
 Scene make_jacks(int size);     ///< spd_jacks.cpp
+/// jacks with -t R (R >= 1): each jack tessellated in its own frame, then
+/// moved, as SPD does under its transform stack (tessellate_scene, which
+/// works in world space, would turn the spheres' cube grids differently).
+/// Throws std::invalid_argument as tessellate_scene does.
+Scene make_jacks_tessellated(int size, int resolution);
 Scene make_sombrero(int size);  ///< spd_sombrero.cpp
 
 }  // namespace raynode::core::spd

@@ -370,6 +370,39 @@ TEST_CASE("spd jacks: size 2's first copy is half size at octant (-0.5, -0.5, -0
   CHECK_VEC(sphere(j, 12).center, yx, ry, rz);
 }
 
+TEST_CASE("spd jacks: -t tessellates each jack in its own frame, as SPD under its transform stack") {
+  const Scene curved = make("jacks", 1);
+  const Scene j = make("jacks", 1, 1);
+  // 3 cones x 8 then 6 spheres x 12 triangles, in the curved shapes' order.
+  REQUIRE(j.counts() == counts(0, 3 * 8 + 6 * 12, 0, 0, 1, 1));
+  CHECK(j.view == curved.view);
+  CHECK(j.materials == curved.materials);
+  // Undo the root turn (about Y by -20 deg, then X by -30 deg): inverse
+  // about X by +30 deg, then Y by +20 deg.
+  const auto unturn = [](const Vec3& p) {
+    const double c30 = std::cos(30 * kPi / 180), s30 = 0.5;
+    const double c20 = std::cos(20 * kPi / 180), s20 = std::sin(20 * kPi / 180);
+    const double y = p.y * c30 - p.z * s30, z = p.y * s30 + p.z * c30;  // about X by +30
+    return Vec3{static_cast<float>(p.x * c20 + z * s20), static_cast<float>(y),
+                static_cast<float>(-p.x * s20 + z * c20)};  // about Y by +20
+  };
+  for (std::size_t i = 24; i < j.shapes.size(); ++i) {
+    const Sphere& s = sphere(curved, 3 + (i - 24) / 12);
+    for (std::uint32_t k = 0; k < 3; ++k) {
+      const Vec3 d = vertex(j, i, k) - s.center;
+      CHECK(length(d) == doctest::Approx(0.15).epsilon(1e-5));
+      // R = 1: the grid points are the corners of the jack's own cube, so in
+      // the jack's frame |x| = |y| = |z| (a world-space grid would not turn).
+      const Vec3 l = unturn(d);
+      CHECK(std::fabs(l.x) == doctest::Approx(std::fabs(l.y)).epsilon(1e-4));
+      CHECK(std::fabs(l.x) == doctest::Approx(std::fabs(l.z)).epsilon(1e-4));
+      // SPD moves normals by the inverse transpose, unnormalised: 1 / 0.75 long.
+      CHECK(length(j.normals[j.shapes[i].first_normal + k]) ==
+            doctest::Approx(1.0 / 0.75).epsilon(1e-5));
+    }
+  }
+}
+
 // ---------------------------------------------------------------- sombrero
 
 TEST_CASE("spd sombrero: counts are 2 (W-1)^2 triangles, W = 32 2^(s-1)") {
@@ -418,6 +451,7 @@ TEST_CASE("spd more: -t R turns spheres into 12 R^2 and cones into 8 R triangles
   CHECK(make("lattice", 1, 1).counts() == counts(0, 8 * 12 + 12 * 8, 0, 0, 6, 20));
   CHECK(make("shells", 1, 1).counts() == counts(0, 361 * 12, 0, 0, 1, 1));
   CHECK(make("jacks", 1, 2).counts() == counts(0, 6 * 48 + 3 * 16, 0, 0, 1, 1));
+  CHECK(make("jacks", 2, 1).counts() == counts(0, 9 * (6 * 12 + 3 * 8), 0, 0, 1, 1));
   // No curved primitives: unchanged.
   CHECK(make("gears", 1, 3).counts() == make("gears", 1).counts());
   CHECK(make("sombrero", 1, 3).counts() == make("sombrero", 1).counts());
@@ -429,6 +463,7 @@ TEST_CASE("spd more: scene write output read back (core NFF reader) is the same 
     check_round_trip(make(name, 2));
   }
   check_round_trip(make("tree", 2, 1));
+  check_round_trip(make("jacks", 2, 2));
 }
 
 TEST_CASE("spd more: sizes outside each generator's range are refused, naming the range") {
@@ -442,4 +477,8 @@ TEST_CASE("spd more: sizes outside each generator's range are refused, naming th
     CHECK_THROWS_AS(make(name, max_size + 1), std::invalid_argument);
     CHECK(parse_spd_spec(std::string(name) + ":3").size == 3);
   }
+  // jacks' own -t path refuses what tessellate_scene refuses.
+  CHECK_THROWS_AS(make("jacks", 1, -1), std::invalid_argument);
+  CHECK_THROWS_WITH_AS(make("jacks", 7, 10), doctest::Contains("more than the 33554432 supported"),
+                       std::invalid_argument);
 }
