@@ -20,10 +20,9 @@
 
 #include <cmath>
 #include <stdexcept>
-#include <vector>
+#include <string>
 
 #include "core/spd.h"
-
 #include "core/spd_generators.h"
 
 namespace raynode::core::spd {
