@@ -26,6 +26,7 @@ namespace {
 struct BenchOptions {
   std::vector<std::string> scenes;
   int tessellate = 0;
+  core::ViewOverride view;  ///< --eye, --at, --up, --fov
   int width = 512, height = 512;
   int repeat = 3;
   float density = core::GridParams{}.density;
@@ -83,7 +84,9 @@ void run_bench(const BenchOptions& o) {
     fmt::print("{:<12} {:>9} {:>12} {:>9} {:>10} {:>11} {:>11} {:>12} {:>12} {:>8}\n", "scene", "prims", "grid res",
                "build s", "rays", "cells/ray", "tests/ray", "grid Mray/s", "embree Mray/s", "ratio");
   for (const std::string& spec : o.scenes) {
-    const core::Scene scene = core::load_scene({spec, o.tessellate});
+    core::SceneSource source(spec, o.tessellate);
+    source.view = o.view;
+    const core::Scene scene = core::load_scene(source);
     const core::Database db = core::make_database(scene);
     core::GridParams gp;
     gp.density = o.density;
@@ -156,9 +159,10 @@ void register_bench_command(CLI::App& app) {
   auto o = std::make_shared<BenchOptions>();
   CLI::App* c = bench->add_subcommand(
       "accel", "Rays/s of the uniform grid vs Embree, one thread, same rays (primary, shadow, mirror)");
-  c->add_option("scenes", o->scenes, "Scenes (NFF files or SPD name[:size])")->required();
+  c->add_option("scenes", o->scenes, "Scenes (NFF or mesh files, or SPD name[:size])")->required();
   c->add_option("--tessellate,-t", o->tessellate, "Tessellate spheres and cones (SPD -t R)")
       ->check(CLI::Range(0, 1000));
+  add_camera_options(*c, o->view);
   c->add_option("--width", o->width, "Image width for primary rays")->check(CLI::Range(1, 8192));
   c->add_option("--height", o->height, "Image height for primary rays")->check(CLI::Range(1, 8192));
   c->add_option("--repeat", o->repeat, "Runs per accelerator; the best is kept")->check(CLI::Range(1, 100));

@@ -117,6 +117,7 @@ void register_validate_command(CLI::App& app) {
       "Fire >= 1M rays (primary, random, secondary from real hit points) through the uniform grid and "
       "Embree and count mismatches; exit 1 if any");
   add_scene_options(*c, o->source);
+  add_camera_options(*c, o->source.view);
   c->add_flag("--json", o->json, "Print the counts as JSON");
   c->add_option("--width", o->params.width, "Primary rays: image width in pixels")->check(CLI::Range(1, 16384));
   c->add_option("--height", o->params.height, "Primary rays: image height in pixels")->check(CLI::Range(1, 16384));
