@@ -529,8 +529,13 @@ void register_render_command(CLI::App& app) {
       ->capture_default_str();
   add_skip_empty_option(*c, o->skip_empty);
   add_pack_cells_option(*c, o->pack_min);
-  c->add_option("--width", o->width, "Image width in pixels (default: the scene's view; given alone, the height follows the view's aspect ratio)")->check(CLI::Range(1, 16384));
-  c->add_option("--height", o->height, "Image height in pixels (default: the scene's view; given alone, the width follows the view's aspect ratio)")
+  c->add_option("--width", o->width,
+                "Image width in pixels (default: the scene's view; given alone, the height keeps the view's aspect "
+                "ratio)")
+      ->check(CLI::Range(1, 16384));
+  c->add_option("--height", o->height,
+                "Image height in pixels (default: the scene's view; given alone, the width keeps the view's aspect "
+                "ratio)")
       ->check(CLI::Range(1, 16384));
   c->add_option("--spp", o->spp, "N: N x N stratified samples per pixel (fixed offsets, no randomness)")
       ->check(CLI::Range(1, 64))

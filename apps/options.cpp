@@ -29,7 +29,8 @@ bool parse_double(const std::string& text, double& v) {
 
 void add_scene_options(CLI::App& cmd, core::SceneSource& source) {
   cmd.add_option("scene", source.spec,
-                 "NFF file (.nff, .nff.gz), mesh file (.obj, .ply, .stl, .off, .gltf, .glb, ... through Assimp) or built-in SPD scene name[:size]: teapot, mount, rings, tetra, balls "
+                 "NFF file (.nff, .nff.gz), mesh file (.obj, .ply, .stl, .off, .gltf, .glb, ...: docs/meshes.md) or "
+                 "built-in SPD scene name[:size]: teapot, mount, rings, tetra, balls "
                  "(e.g. teapot:8, mount:6, tetra:9)")
       ->required();
   cmd.add_option("--tessellate,-t", source.tessellate,

@@ -149,6 +149,12 @@ struct MeshBuilder {
   void add_mesh_data(const MeshData& m) {
     use_default_material();
     const bool normals = m.normals.size() == m.positions.size() && !m.normals.empty();
+    const std::size_t triangles = m.face_indices.size() >= 2 * m.face_sizes.size()
+                                      ? m.face_indices.size() - 2 * m.face_sizes.size()
+                                      : 0;  // n - 2 per face of n >= 3 vertices
+    scene.shapes.reserve(scene.shapes.size() + triangles);
+    scene.vertices.reserve(scene.vertices.size() + 3 * triangles);
+    if (normals) scene.normals.reserve(scene.normals.size() + 3 * triangles);
     std::size_t at = 0;
     for (const std::uint32_t count : m.face_sizes) {
       face_v.resize(count);
@@ -169,8 +175,11 @@ struct MeshBuilder {
     const aiMatrix3x3 normal_matrix = aiMatrix3x3(transform).Inverse().Transpose();
     const bool has_normals = mesh.HasNormals();
     const unsigned mi = mesh.mMaterialIndex;
-    if (mi < ai.mNumMaterials && !is_default_material(*ai.mMaterials[mi])) use_material(map_material(*ai.mMaterials[mi]));
-    else use_default_material();
+    if (mi < ai.mNumMaterials && !is_default_material(*ai.mMaterials[mi])) {
+      use_material(map_material(*ai.mMaterials[mi]));
+    } else {
+      use_default_material();
+    }
     for (unsigned f = 0; f < mesh.mNumFaces; ++f) {
       const aiFace& face = mesh.mFaces[f];
       face_v.resize(face.mNumIndices);
@@ -331,7 +340,8 @@ Scene read_mesh(const std::string& path, std::vector<std::string>* notes) {
     out.has_color = true;
     s.lights.push_back(out);
   }
-  if (other_lights > 0) note(fmt::format("{}: skipped {} lights that are not point or spot lights", path, other_lights));
+  if (other_lights > 0)
+    note(fmt::format("{}: skipped {} lights that are not point or spot lights", path, other_lights));
   if (s.lights.empty()) {
     const View& v = s.view;
     const Vec3 dir = v.at - v.from;

@@ -18,7 +18,7 @@ bool is_scene_file(const std::string& spec) {
   std::error_code ec;
   // Any existing file but a directory: a FIFO or a device is read as NFF too.
   const auto st = std::filesystem::status(spec, ec);
-  return ends_with(".nff") || ends_with(".nff.gz") || ends_with(".gz") ||
+  return ends_with(".nff") || ends_with(".nff.gz") || ends_with(".gz") || is_mesh_extension(spec) ||
          spec.find('/') != std::string::npos ||
          (!ec && std::filesystem::exists(st) && !std::filesystem::is_directory(st));
 }

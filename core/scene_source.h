@@ -3,8 +3,8 @@
 //
 // Place in the data flow: the SCENE argument of every raynode subcommand ->
 // load_scene -> Scene. A spec naming an existing file that is not a
-// directory (a FIFO or a device too), containing a '/', or ending in `.nff`
-// or `.nff.gz`, is a file: a mesh (mesh_file.h: OBJ, PLY, STL, OFF, glTF, ...
+// directory (a FIFO or a device too), containing a '/', or ending in `.nff`,
+// `.nff.gz` or a mesh extension, is a file: a mesh (mesh_file.h: OBJ, PLY, STL, OFF, glTF, ...
 // by extension, or by its first bytes) or else NFF; anything else is parsed
 // as `name[:size]` of a built-in generator (spd.h).
 #pragma once

@@ -73,7 +73,8 @@ std::string view_problem(const View& v) {
                                         text(v.from));
   if (!up_is_usable(normalize_any(dir), v.up))
     return fmt::format("'up' {} is parallel to the viewing direction {}", text(v.up), text(dir));
-  if (!(v.angle > 0.0f && v.angle < 180.0f)) return fmt::format("field of view {} must be in (0, 180) degrees", v.angle);
+  if (!(v.angle > 0.0f && v.angle < 180.0f))
+    return fmt::format("field of view {} must be in (0, 180) degrees", v.angle);
   return {};
 }
 

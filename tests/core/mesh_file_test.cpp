@@ -8,6 +8,7 @@
 
 #include <doctest/doctest.h>
 
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
@@ -177,6 +178,9 @@ TEST_CASE("mesh: ASCII and binary STL give flat triangles") {
   const Scene a = read_mesh(ascii);
   CHECK(count_kind(a, ShapeKind::kPolygon) == 2);
   CHECK(count_kind(a, ShapeKind::kPatch) == 0);
+  REQUIRE(a.materials.size() == 1);  // Assimp's stand-in material becomes raynode's grey
+  CHECK(a.materials[0].color == Vec3{0.8f, 0.8f, 0.8f});
+  CHECK(a.materials[0].ks == 0.0f);
 
   std::string b(80, 'x');  // a header that does not start with "solid"
   put(b, std::uint32_t(3));
@@ -235,7 +239,8 @@ TEST_CASE("mesh: the framed view sees the whole bounding box from +z") {
   CHECK(s.view.up == Vec3{0, 1, 0});
   CHECK(s.view.angle == 45.0f);
   // The bounding sphere (radius 2.5) fits the 45-degree cone: sin(22.5) * distance >= radius.
-  CHECK(std::sin(22.5 * 3.14159265358979 / 180.0) * double(s.view.from.z - 5.0f) >= 2.5 * 0.999);
+  const double distance = double(s.view.from.z - 5.0f);
+  CHECK(std::sin(22.5 * 3.14159265358979 / 180.0) * distance >= 2.5 * 0.999);
   // The default lights stand above the eye, off to both sides.
   REQUIRE(s.lights.size() == 2);
   CHECK(s.lights[0].position.y > s.view.from.y);
@@ -264,6 +269,8 @@ TEST_CASE("mesh: files are recognised by extension and by their first bytes") {
   CHECK_FALSE(raynode::core::is_mesh_extension("a.nff"));
   CHECK_FALSE(raynode::core::is_mesh_extension("a.nff.gz"));
   CHECK_FALSE(raynode::core::is_mesh_extension("teapot"));
+  CHECK(raynode::core::is_scene_file("bunny.ply"));  // a file, even before it exists
+  CHECK_FALSE(raynode::core::is_scene_file("teapot:8"));
   const std::string ply = dir.write("noext",
                                     "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
                                     "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
