@@ -267,6 +267,8 @@ Scene read_mesh(const std::string& path, std::vector<std::string>* notes) {
   const aiScene* ai = nullptr;
   const MeshFormat format = mesh_format(path, file_head(path));
   if (format == MeshFormat::kAssimp) {
+    // Assimp opens the file itself and would wait on a FIFO without a writer, deaf to the stop request.
+    if (!S_ISREG(st.st_mode)) fail("Assimp reads only regular files");
     // Normals only as the file gives them; no unit scaling or recentring.
     ai = importer.ReadFile(path, aiProcess_Triangulate);
     if (ai == nullptr) {
