@@ -167,6 +167,39 @@ TEST_CASE("mesh: binary PLY without normals is flat, degenerate triangles droppe
   CHECK(s.counts().dropped_degenerate == 1);
 }
 
+TEST_CASE("mesh: big-endian PLY with double coordinates, extra properties and elements") {
+  MeshDir dir;
+  std::string b =
+      "ply\r\nformat binary_big_endian 1.0\r\ncomment made by hand\r\nelement vertex 3\r\n"
+      "property double x\r\nproperty double y\r\nproperty double z\r\nproperty uchar red\r\n"
+      "element face 1\r\nproperty list uchar uint vertex_indices\r\nproperty float quality\r\n"
+      "element edge 1\r\nproperty int vertex1\r\nproperty int vertex2\r\nend_header\r\n";
+  auto put_be = [&b](auto v) {
+    char c[sizeof v];
+    std::memcpy(c, &v, sizeof v);
+    for (std::size_t i = sizeof v; i-- > 0;) b.push_back(c[i]);
+  };
+  const double xyz[3][3] = {{0, 0, 0}, {4, 0, 0}, {0, 2, 0}};
+  for (const auto& v : xyz) {
+    for (double x : v) put_be(x);
+    put_be(std::uint8_t(200));
+  }
+  put_be(std::uint8_t(3)), put_be(std::uint32_t(0)), put_be(std::uint32_t(1)), put_be(std::uint32_t(2));
+  put_be(0.5f);
+  put_be(std::int32_t(0)), put_be(std::int32_t(1));
+  const Scene s = read_mesh(dir.write("be.ply", b));
+  REQUIRE(s.shapes.size() == 1);
+  CHECK(s.bounds().upper.x == 4.0f);
+  CHECK(s.bounds().upper.y == 2.0f);
+  // Cut anywhere inside the body: an error, never a crash.
+  const std::size_t body = b.find("end_header\r\n") + 12;
+  for (std::size_t cut = body; cut < b.size(); cut += 7) {
+    CAPTURE(cut);
+    const std::string path = dir.write("cut.ply", b.substr(0, cut));
+    CHECK(error_of([&] { read_mesh(path); }).find("(truncated)") != std::string::npos);
+  }
+}
+
 TEST_CASE("mesh: ASCII and binary STL give flat triangles") {
   MeshDir dir;
   const std::string ascii = dir.write("a.stl",
