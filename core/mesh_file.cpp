@@ -248,7 +248,7 @@ bool is_mesh_file(const std::string& path) {
   return has_mesh_magic(file_head(path));
 }
 
-Scene read_mesh(const std::string& path, std::vector<std::string>* notes) {
+Scene read_mesh(const std::string& path, std::vector<std::string>* notes, const ViewOverride& view) {
   auto fail = [&](const std::string& why) {
     throw std::runtime_error(fmt::format("cannot read mesh '{}': {}", path, why));
   };
@@ -319,8 +319,10 @@ Scene read_mesh(const std::string& path, std::vector<std::string>* notes) {
   if (!s.has_view) {
     s.view = frame_bounds(s.bounds());
     s.has_view = true;
-    note(fmt::format("{} has no view: framing its bounding box from +z", path));
+    if (!(view.eye && view.at)) note(fmt::format("{} has no view: framing its bounding box from +z", path));
   }
+  // The command line's view now, so that default lights stand beside the eye it gives.
+  apply_view_override(s, view);
 
   std::size_t other_lights = 0;
   for (unsigned i = 0; ai != nullptr && i < ai->mNumLights; ++i) {

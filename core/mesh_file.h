@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/scene.h"
+#include "core/scene_view.h"
 
 namespace raynode::core {
 
@@ -38,9 +39,13 @@ bool is_mesh_file(const std::string& path);
 /// `notes` (may be null) receives one line per default filled in or thing
 /// skipped, each naming the file ("bunny.ply has no view: framing its
 /// bounding box from +z").
+/// `view` (--eye, --at, --up, --fov) is applied to the file's or the framed
+/// view before default lights are placed, so that they stand beside the eye
+/// it gives; with both eye and at given, no framing is reported.
 /// Throws std::runtime_error naming the file ("cannot read mesh 'x.ply':
 /// <Assimp's reason>") when Assimp cannot import it or it holds no
-/// triangles or a non-finite coordinate; StopError when a stop is requested.
-Scene read_mesh(const std::string& path, std::vector<std::string>* notes = nullptr);
+/// triangles or a non-finite coordinate; std::invalid_argument for an
+/// unusable `view` (apply_view_override); StopError when a stop is requested.
+Scene read_mesh(const std::string& path, std::vector<std::string>* notes = nullptr, const ViewOverride& view = {});
 
 }  // namespace raynode::core

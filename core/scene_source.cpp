@@ -31,7 +31,7 @@ Scene load_scene(const SceneSource& source) {
   if (is_scene_file(source.spec)) {
     if (is_mesh_file(source.spec)) {
       std::vector<std::string> notes;
-      s = read_mesh(source.spec, &notes);
+      s = read_mesh(source.spec, &notes, source.view);
       for (const std::string& line : notes) std::fprintf(stderr, "raynode: %s\n", line.c_str());
     } else {
       s = read_nff(source.spec);

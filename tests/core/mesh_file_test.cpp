@@ -424,3 +424,19 @@ TEST_CASE("fit_resolution: one side given keeps the view's aspect ratio") {
   raynode::core::fit_resolution(w, h, v);
   CHECK(h == 1);  // at least one pixel
 }
+
+TEST_CASE("mesh: a camera given with the file places the default lights beside its eye") {
+  MeshDir dir;
+  const std::string path = dir.write("q.off", "OFF\n3 1 0\n-2 0 5\n2 0 5\n0 3 5\n3 0 1 2\n");
+  raynode::core::ViewOverride o;
+  o.eye = Vec3{100, 0, 5};
+  o.at = Vec3{0, 1, 5};
+  std::vector<std::string> notes;
+  const Scene s = read_mesh(path, &notes, o);
+  CHECK(s.view.from == Vec3{100, 0, 5});
+  CHECK(s.view.at == Vec3{0, 1, 5});
+  REQUIRE(s.lights.size() == 2);
+  CHECK(s.lights[0].position.x > 100.0f);  // behind-right of the eye on +x, not near the +z framing
+  CHECK(s.lights[1].position.x > 100.0f);
+  for (const auto& n : notes) CHECK(n.find("has no view") == std::string::npos);
+}
