@@ -1,8 +1,8 @@
 // raynode's own readers for PLY and OFF, the two mesh formats whose Assimp
 // importers crash on truncated input (Assimp 5.2: a binary PLY shorter than
 // its header says reads past the buffer; an OFF file with fewer faces than
-// announced aborts on an assertion). Both also read a 1M-triangle file in a
-// fraction of Assimp's time.
+// announced aborts on an assertion). A 1M-triangle binary PLY reads, with
+// the database built, in about 0.6 s (`raynode scene info`).
 //
 // Place in the data flow: read_mesh (mesh_file.h) -> read_scene_text (the
 // bytes, within the memory limit; gzip inflated) -> read_ply / read_off ->
