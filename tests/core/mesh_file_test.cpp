@@ -325,7 +325,8 @@ TEST_CASE("mesh: garbage and truncated files of each format are one error naming
   std::string bin_stl(80, 'x');
   put(bin_stl, std::uint32_t(1000));
   for (int i = 0; i < 20; ++i) put(bin_stl, 1.0f);
-  const std::string garbage("\x01\xff\xfe garbage \x00\x1bX\n\x7f\x80", 20);
+  static const char kGarbage[] = "\x01\xff\xfe garbage \x00\x1bX\n\x7f\x80";  // with a NUL inside
+  const std::string garbage(kGarbage, sizeof kGarbage - 1);
   const std::vector<std::pair<std::string, std::string>> files = {
       {"g.obj", garbage},
       {"cut.obj", "v 0 0 0\nv 1 0 0\nf 1 2 7\n"},
