@@ -38,11 +38,7 @@ bool close(double a, double b, double tol = 1e-4) {
   } while (0)
 
 Scene make(const std::string& name, int size, int tessellate = 0) {
-  SpdParams params;
-  params.name = name;
-  params.size = size;
-  params.tessellate = tessellate;
-  return make_spd_scene(params);
+  return make_spd_scene(SpdParams{name, size, tessellate});
 }
 
 SceneCounts counts(std::size_t polygons, std::size_t patches, std::size_t spheres,

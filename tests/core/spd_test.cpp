@@ -187,11 +187,7 @@ void check_matches_reference(const std::string& file) {
 }
 
 Scene make(const std::string& name, int size, int tessellate = 0) {
-  SpdParams params;
-  params.name = name;
-  params.size = size;
-  params.tessellate = tessellate;
-  return make_spd_scene(params);
+  return make_spd_scene(SpdParams{name, size, tessellate});
 }
 
 }  // namespace
