@@ -26,6 +26,7 @@ namespace {
 struct BenchOptions {
   std::vector<std::string> scenes;
   int tessellate = 0;
+  core::ViewOverride view;  ///< --eye, --at, --up, --fov
   int width = 512, height = 512;
   int repeat = 3;
   float density = core::GridParams{}.density;
@@ -84,7 +85,9 @@ void run_bench(const BenchOptions& o) {
     fmt::print("{:<12} {:>9} {:>12} {:>9} {:>10} {:>11} {:>11} {:>12} {:>12} {:>8}\n", "scene", "prims", "grid res",
                "build s", "rays", "cells/ray", "tests/ray", "grid Mray/s", "embree Mray/s", "ratio");
   for (const std::string& spec : o.scenes) {
-    const core::Scene scene = core::load_scene({spec, o.tessellate});
+    core::SceneSource source(spec, o.tessellate);
+    source.view = o.view;
+    const core::Scene scene = core::load_scene(source);
     const core::Database db = core::make_database(scene);
     core::GridParams gp;
     gp.density = o.density;
@@ -93,7 +96,9 @@ void run_bench(const BenchOptions& o) {
     core::Grid grid;
     const double build_s = best_seconds(1, [&] { grid = core::build_grid(db, gp); });
     const core::EmbreeScene embree(db);
-    const RaySet rs = make_rays(db, grid, o.width, o.height);
+    int width = o.width, height = o.height;  // a side 0: --width or --height alone, the view's aspect
+    core::fit_resolution(width, height, core::render_view(db));
+    const RaySet rs = make_rays(db, grid, width, height);
     core::CellBlocks blocks;
     if (o.pack_min > 0) blocks = core::build_cell_blocks(db, grid, o.pack_min);
     const core::DirectView dv(db, grid, o.pack_min > 0 ? &blocks : nullptr);
@@ -162,18 +167,29 @@ void register_bench_command(CLI::App& app) {
   auto o = std::make_shared<BenchOptions>();
   CLI::App* c = bench->add_subcommand(
       "accel", "Rays/s of the grid (--grid) vs Embree, one thread, same rays (primary, shadow, mirror)");
-  c->add_option("scenes", o->scenes, "Scenes (NFF files or SPD name[:size])")->required();
+  c->add_option("scenes", o->scenes, "Scenes (NFF or mesh files, or SPD name[:size])")->required();
   c->add_option("--tessellate,-t", o->tessellate, "Tessellate spheres and cones (SPD -t R)")
       ->check(CLI::Range(0, 1000));
-  c->add_option("--width", o->width, "Image width for primary rays")->check(CLI::Range(1, 8192));
-  c->add_option("--height", o->height, "Image height for primary rays")->check(CLI::Range(1, 8192));
+  add_camera_options(*c, o->view);
+  CLI::Option* w = c->add_option("--width", o->width,
+                                 "Image width for primary rays (given alone, the height keeps the view's aspect "
+                                 "ratio) [default: 512]")
+                        ->check(CLI::Range(1, 8192));
+  CLI::Option* h = c->add_option("--height", o->height,
+                                 "Image height for primary rays (given alone, the width keeps the view's aspect "
+                                 "ratio) [default: 512]")
+                        ->check(CLI::Range(1, 8192));
   c->add_option("--repeat", o->repeat, "Runs per accelerator; the best is kept")->check(CLI::Range(1, 100));
   c->add_option("--grid-density", o->density, "Grid cells per primitive")->check(finite_range(0.01, 1000));
   add_grid_option(*c, o->grid);
   add_skip_empty_option(*c, o->skip_empty);
   add_pack_cells_option(*c, o->pack_min);
   c->add_flag("--json", o->json, "Print JSON");
-  c->callback([o] { run_bench(*o); });
+  c->callback([o, w, h] {
+    if (w->count() > 0 && h->count() == 0) o->height = 0;  // run_bench fits it to each scene's view
+    if (h->count() > 0 && w->count() == 0) o->width = 0;
+    run_bench(*o);
+  });
 }
 
 }  // namespace raynode::apps

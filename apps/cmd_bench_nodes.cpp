@@ -292,6 +292,7 @@ void register_bench_nodes_commands(CLI::App& app) {
   CLI::App* c = bench->add_subcommand("nodes", "Node emulator: replicated-, svm- or dataflow-mode render for several "
                                                "node counts (wall time, virtual T_p, speedup, efficiency)");
   add_scene_options(*c, no->source);
+  add_camera_options(*c, no->source.view);
   c->add_option("--nodes", no->nodes, "Node counts, comma-separated (include 1 for T_1)")
       ->delimiter(',')
       ->check(CLI::Range(1, 4096))

@@ -78,6 +78,7 @@ const Settings kDefaults{};
 
 struct QualityOptions {
   std::string scene;
+  core::ViewOverride view;  ///< --eye, --at, --up, --fov
   std::string max_depths = "1,2,3,5,8";
   std::string min_weights = "0,0.001,0.01,0.1";
   std::string tessellations = "0,1,2,4";
@@ -253,9 +254,14 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 
 /// The database for `tessellate` with the accelerator `accel` built (cached).
-Prepared& prepare(std::map<int, Prepared>& cache, const std::string& scene, int tessellate, const std::string& accel) {
+Prepared& prepare(std::map<int, Prepared>& cache, const std::string& scene, const core::ViewOverride& view,
+                  int tessellate, const std::string& accel) {
   Prepared& p = cache[tessellate];
-  if (!p.db) p.db = std::make_unique<core::Database>(core::make_database(core::load_scene({scene, tessellate})));
+  if (!p.db) {
+    core::SceneSource source(scene, tessellate);
+    source.view = view;
+    p.db = std::make_unique<core::Database>(core::make_database(core::load_scene(source)));
+  }
   const auto t0 = std::chrono::steady_clock::now();
   if (accel == "embree" && !p.embree) {
     p.embree = std::make_unique<core::EmbreeScene>(*p.db);
@@ -469,7 +475,7 @@ void run_quality(QualityOptions o) {
   // shared mode (all cores) to save time: its image is bit-identical to
   // sequential mode's (core/render.h); its time is not part of the sweep.
   const auto t_all = std::chrono::steady_clock::now();
-  Prepared& analytic = prepare(cache, o.scene, 0, "grid");
+  Prepared& analytic = prepare(cache, o.scene, o.view, 0, "grid");
   core::RenderParams ref_params = base;
   ref_params.spp = o.reference_spp;
   ref_params.max_depth = o.reference_depth;
@@ -554,7 +560,7 @@ void run_quality(QualityOptions o) {
   };
   for (std::size_t i = 0; i < design.size(); ++i) {
     const Settings& s = design[i];
-    prepared[i] = &prepare(cache, o.scene, s.tessellate, s.accel);
+    prepared[i] = &prepare(cache, o.scene, o.view, s.tessellate, s.accel);
     Measured& m = points[i];
     m.primitives = prepared[i]->db->primitives.size();
     m.build_s = s.accel == "embree" ? prepared[i]->embree_build_s : prepared[i]->grid_build_s;
@@ -737,8 +743,10 @@ void register_bench_quality_command(CLI::App& app) {
       "spp 0, unknown accelerator, too many points).\n"
       "Example: raynode bench quality rings:4 --max-depth 1,2,3,5,8 --spp 1,2 --design star -o rings-quality");
   c->add_option("scene", o->scene,
-                "NFF file (.nff, .nff.gz) or built-in SPD scene name[:size]: teapot, mount, rings, tetra, balls")
+                "NFF file (.nff, .nff.gz), mesh file (docs/meshes.md) or built-in SPD scene name[:size]: teapot, "
+                "mount, rings, tetra, balls, gears, tree, lattice, shells, jacks, sombrero")
       ->required();
+  add_camera_options(*c, o->view);
   c->add_option("--max-depth", o->max_depths, "Ray levels to try (eye ray = 1), comma-separated, each in [1, 64]")
       ->capture_default_str();
   c->add_option("--min-weight", o->min_weights, "Pruning thresholds to try (0 = off), comma-separated, in [0, 1]")

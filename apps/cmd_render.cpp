@@ -363,8 +363,10 @@ void run_render(const RenderOptions& o) {
       throw std::runtime_error(o.source.spec + ": " + e.what());
     }
   }();
-  const std::uint64_t pixels = std::uint64_t(o.width > 0 ? o.width : cam_view.width) *
-                               std::uint64_t(o.height > 0 ? o.height : cam_view.height);
+  // --width or --height alone: the other side keeps the view's aspect ratio.
+  core::fit_resolution(params.width, params.height, cam_view);
+  const std::uint64_t pixels = std::uint64_t(params.width > 0 ? params.width : cam_view.width) *
+                               std::uint64_t(params.height > 0 ? params.height : cam_view.height);
   std::atomic<std::uint64_t> done{0};
   params.progress = &done;
 
@@ -507,6 +509,7 @@ void register_render_command(CLI::App& app) {
       "2 bad option or value.\n"
       "Example: raynode render teapot:8 -o teapot.png --mode shared --aov depth,primitive --stats teapot.json");
   add_scene_options(*c, o->source);
+  add_camera_options(*c, o->source.view);
   c->add_option("-o,--output", o->output,
                 "Output image; format by extension: LDR (png, tif, ppm, jpg, ...) gets 8 bits clamped to [0,1], "
                 "exr/hdr get linear floats")
@@ -532,8 +535,13 @@ void register_render_command(CLI::App& app) {
   add_grid_option(*c, o->grid);
   add_skip_empty_option(*c, o->skip_empty);
   add_pack_cells_option(*c, o->pack_min);
-  c->add_option("--width", o->width, "Image width in pixels (default: the scene's view)")->check(CLI::Range(1, 16384));
-  c->add_option("--height", o->height, "Image height in pixels (default: the scene's view)")
+  c->add_option("--width", o->width,
+                "Image width in pixels (default: the scene's view; given alone, the height keeps the view's aspect "
+                "ratio)")
+      ->check(CLI::Range(1, 16384));
+  c->add_option("--height", o->height,
+                "Image height in pixels (default: the scene's view; given alone, the width keeps the view's aspect "
+                "ratio)")
       ->check(CLI::Range(1, 16384));
   c->add_option("--spp", o->spp, "N: N x N stratified samples per pixel (fixed offsets, no randomness)")
       ->check(CLI::Range(1, 64))

@@ -72,7 +72,8 @@ void run_info(const InfoOptions& o) {
 }  // namespace
 
 void register_scene_commands(CLI::App& app) {
-  CLI::App* scene = app.add_subcommand("scene", "Inspect or write scenes (NFF files or built-in SPD generators)");
+  CLI::App* scene =
+      app.add_subcommand("scene", "Inspect or write scenes (NFF or mesh files, or built-in SPD generators)");
   scene->require_subcommand(1);
 
   auto info = std::make_shared<InfoOptions>();

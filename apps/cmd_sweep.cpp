@@ -245,6 +245,7 @@ std::string scene_slug(const core::SceneSource& s) {
 /// Adds SCENE, the machine options, --full and -o to a sweep subcommand.
 void add_sweep_options(CLI::App& c, SweepOptions& o, NodeRunOptionSet set) {
   add_scene_options(c, o.source);
+  add_camera_options(c, o.source.view);
   add_node_run_options(c, o.run, set);
   CLI::Option* full = c.add_flag("--full", o.full, "The paper's 512x512 image (instead of --width x --height)");
   full->excludes(c.get_option("--width"));

@@ -9,6 +9,8 @@
 #include "core/database.h"
 #include "core/embree_scene.h"
 #include "core/grid.h"
+#include "core/render.h"
+#include "core/scene_view.h"
 #include "core/validate.h"
 
 namespace raynode::apps {
@@ -51,7 +53,9 @@ void run_validate(const ValidateOptions& o) {
   const core::EmbreeScene embree(db);
   const core::ValidateReport r = [&] {
     try {
-      return core::validate_grid(db, grid, embree, o.params);
+      core::ValidateParams params = o.params;  // a side 0: --width or --height alone, the view's aspect
+      core::fit_resolution(params.width, params.height, core::render_view(db));
+      return core::validate_grid(db, grid, embree, params);
     } catch (const std::exception& e) {  // a default camera or a ray out of Embree's range: name the scene
       throw std::runtime_error(o.source.spec + ": " + e.what());
     }
@@ -120,9 +124,16 @@ void register_validate_command(CLI::App& app) {
       "Fire >= 1M rays (primary, random, secondary from real hit points) through the grid (--grid) and "
       "Embree and count mismatches; exit 1 if any");
   add_scene_options(*c, o->source);
+  add_camera_options(*c, o->source.view);
   c->add_flag("--json", o->json, "Print the counts as JSON");
-  c->add_option("--width", o->params.width, "Primary rays: image width in pixels")->check(CLI::Range(1, 16384));
-  c->add_option("--height", o->params.height, "Primary rays: image height in pixels")->check(CLI::Range(1, 16384));
+  CLI::Option* w = c->add_option("--width", o->params.width,
+                                 "Primary rays: image width in pixels (given alone, the height keeps the view's "
+                                 "aspect ratio) [default: 512]")
+                        ->check(CLI::Range(1, 16384));
+  CLI::Option* h = c->add_option("--height", o->params.height,
+                                 "Primary rays: image height in pixels (given alone, the width keeps the view's "
+                                 "aspect ratio) [default: 512]")
+                        ->check(CLI::Range(1, 16384));
   c->add_option("--random-rays", o->params.random_rays, "Number of random rays")->check(CLI::Range(0, 100000000));
   c->add_option("--seed", o->params.seed, "Random seed");
   c->add_option("--t-tolerance", o->params.t_rel, "Relative tolerance on the hit distance")
@@ -132,7 +143,11 @@ void register_validate_command(CLI::App& app) {
   add_grid_option(*c, o->grid);
   add_skip_empty_option(*c, o->skip_empty);
   add_pack_cells_option(*c, o->params.pack_min);
-  c->callback([o] { run_validate(*o); });
+  c->callback([o, w, h] {
+    if (w->count() > 0 && h->count() == 0) o->params.height = 0;  // run_validate fits it to the view
+    if (h->count() > 0 && w->count() == 0) o->params.width = 0;
+    run_validate(*o);
+  });
 }
 
 }  // namespace raynode::apps

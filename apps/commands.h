@@ -36,6 +36,14 @@ class Interrupted : public std::runtime_error {
 /// Adds the SCENE positional, --tessellate, --scale and --translate to a subcommand.
 void add_scene_options(CLI::App& cmd, core::SceneSource& source);
 
+/// Adds --eye X,Y,Z, --at X,Y,Z, --up X,Y,Z and --fov DEG to a subcommand:
+/// parts of the view that replace the scene's (core::ViewOverride; scene
+/// file coordinates, before --scale and --translate). Each number must be
+/// finite and --fov in (0, 180) (CLI errors, exit 2); the view they give is
+/// checked by core::load_scene (std::invalid_argument, exit 2). `view` must
+/// outlive the parse.
+void add_camera_options(CLI::App& cmd, core::ViewOverride& view);
+
 /// Adds --skip-empty on|off (core::GridParams::skip_empty) to a subcommand;
 /// `skip_empty` must outlive the parse.
 void add_skip_empty_option(CLI::App& cmd, bool& skip_empty);

@@ -1,4 +1,4 @@
-// The options several subcommands share (commands.h): the scene, the grid
+// The options several subcommands share (commands.h): the scene, the camera, the grid
 // kind, the grid walk's empty-space jumps, packed cells, and the check that no option is
 // given to a mode that ignores it.
 #include <fmt/core.h>
@@ -8,16 +8,31 @@
 #include <cstdlib>
 #include <limits>
 #include <nlohmann/json.hpp>
+#include <optional>
+#include <vector>
 
 #include "apps/commands.h"
 #include "core/cell_blocks.h"
 
 namespace raynode::apps {
 
+namespace {
+
+/// The number `text` spells, whole (strtod: "nan" and "inf" included);
+/// false if it is not one.
+bool parse_double(const std::string& text, double& v) {
+  char* end = nullptr;
+  v = std::strtod(text.c_str(), &end);
+  return end != text.c_str() && *end == '\0';
+}
+
+}  // namespace
+
 void add_scene_options(CLI::App& cmd, core::SceneSource& source) {
   cmd.add_option("scene", source.spec,
-                 "NFF file (.nff, .nff.gz) or built-in SPD scene name[:size]: teapot, mount, rings, tetra, balls "
-                 "(e.g. teapot:8, mount:6, tetra:9)")
+                 "NFF file (.nff, .nff.gz), mesh file (.obj, .ply, .stl, .off, .gltf, .glb, ...: docs/meshes.md) or "
+                 "built-in SPD scene name[:size]: teapot, mount, rings, tetra, balls, gears, tree, lattice, shells, "
+                 "jacks, sombrero (e.g. teapot:8, mount:6, tetra:9)")
       ->required();
   cmd.add_option("--tessellate,-t", source.tessellate,
                  "Replace spheres by 12*R^2 and cones by 8*R triangles, as SPD's -t R (0 = curved)")
@@ -32,6 +47,33 @@ void add_scene_options(CLI::App& cmd, core::SceneSource& source) {
          "Move the whole scene by X,Y,Z world units (after --scale) [default: 0,0,0]")
       ->delimiter(',')
       ->expected(3);
+}
+
+void add_camera_options(CLI::App& cmd, core::ViewOverride& view) {
+  auto point = [&cmd](const char* name, std::optional<core::Vec3>& field, const char* help) {
+    cmd.add_option_function<std::vector<double>>(
+           name, [&field](const std::vector<double>& v) { field = core::Vec3{float(v[0]), float(v[1]), float(v[2])}; },
+           help)
+        ->delimiter(',')
+        ->expected(3)
+        ->type_name("X,Y,Z")
+        ->check(finite_range(-3.0e38, 3.0e38));
+  };
+  point("--eye", view.eye, "Camera position (the view's 'from'), scene file units [default: the scene's view]");
+  point("--at", view.at, "Point the camera looks at [default: the scene's view]");
+  point("--up", view.up, "Camera up direction, not parallel to --at minus --eye [default: the scene's view]");
+  cmd.add_option_function<double>(
+         "--fov", [&view](double v) { view.fov = float(v); },
+         "Full horizontal field of view in degrees, NFF's 'angle', in (0, 180) [default: the scene's view]")
+      ->type_name("DEG")
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            double v = 0;
+            if (!parse_double(text, v) || !std::isfinite(v) || !(v > 0.0 && v < 180.0))
+              return fmt::format("must be a field of view in (0, 180) degrees, got '{}'", text);
+            return {};
+          },
+          "DEG in (0, 180)"));
 }
 
 void add_skip_empty_option(CLI::App& cmd, bool& skip_empty) {
@@ -95,18 +137,6 @@ void add_pack_cells_option(CLI::App& cmd, std::uint32_t& pack_min) {
                      raynode::core::kBlockLanes, raynode::core::kDefaultPackMin))
       ->check(CLI::IsMember({"off"}) | CLI::Range(1, 1 << 20));
 }
-
-namespace {
-
-/// The number `text` spells, whole (strtod: "nan" and "inf" included);
-/// false if it is not one.
-bool parse_double(const std::string& text, double& v) {
-  char* end = nullptr;
-  v = std::strtod(text.c_str(), &end);
-  return end != text.c_str() && *end == '\0';
-}
-
-}  // namespace
 
 CLI::Validator finite_range(double lo, double hi) {
   std::string bounds;  // " in [0, 1]", " >= 0", ""

@@ -98,12 +98,19 @@ inline std::uint32_t lane_bits(LaneI m) {
 #endif
 }
 
+/// A block's values of the watertight test, lane by lane: the edge
+/// functions, the sheared x and y of the three vertices relative to the
+/// origin, and their z relative to it (world units, before the scaling).
+struct BlockLanes {
+  LaneF u, v, e;
+  LaneF x[3], y[3], z[3];
+};
+
 /// The candidate lanes of `b` (the ray's line crosses the triangle, or an
-/// edge function is 0), and each lane's edge functions and z values.
+/// edge function is 0), with each lane's values in `l`.
 template <int KX, int KY, int KZ>
 [[gnu::always_inline]] inline std::uint32_t block_candidates(const TriangleBlock& b, const float o[3],
-                                                            const WatertightRay& w, LaneF& u, LaneF& v,
-                                                            LaneF& e) {
+                                                            const WatertightRay& w, BlockLanes& l) {
   const LaneF* const c = reinterpret_cast<const LaneF*>(b.v);  // c[3 * vertex + axis]
   const LaneF ax = c[0 + KX] - o[KX], ay = c[0 + KY] - o[KY], az = c[0 + KZ] - o[KZ];
   const LaneF bx = c[3 + KX] - o[KX], by = c[3 + KY] - o[KY], bz = c[3 + KZ] - o[KZ];
@@ -111,9 +118,10 @@ template <int KX, int KY, int KZ>
   const LaneF Ax = ax - w.sx * az, Ay = ay - w.sy * az;
   const LaneF Bx = bx - w.sx * bz, By = by - w.sy * bz;
   const LaneF Cx = cx - w.sx * cz, Cy = cy - w.sy * cz;
-  u = Cx * By - Cy * Bx;
-  v = Ax * Cy - Ay * Cx;
-  e = Bx * Ay - By * Ax;
+  const LaneF u = Cx * By - Cy * Bx;
+  const LaneF v = Ax * Cy - Ay * Cx;
+  const LaneF e = Bx * Ay - By * Ax;
+  l = BlockLanes{u, v, e, {Ax, Bx, Cx}, {Ay, By, Cy}, {az, bz, cz}};
   const LaneF zero = {};
   const LaneI neg = (u < zero) | (v < zero) | (e < zero);
   const LaneI pos = (u > zero) | (v > zero) | (e > zero);
@@ -128,23 +136,27 @@ inline void block_triangle(const TriangleBlock& b, std::uint32_t l, Vec3& v0, Ve
 }
 
 /// Finishes a candidate lane as intersect_triangle_axes does after its sign
-/// test, on the lane's u, v, e: true with `hit` when tmin < t < tmax.
+/// test, on the lane's u, v, e, the largest magnitudes of its sheared x, y
+/// and of its z (mx, my, mz) and its z values (za, zb, zc, before the
+/// scaling): true with `hit` when tmin < t < tmax. Out of line (candidates
+/// are rare): the block loop stays small and keeps its state in registers.
 template <int KX, int KY, int KZ>
-inline bool finish_lane(const Ray& ray, const WatertightRay& w, const TriangleBlock& b, std::uint32_t l, float u,
-                        float v, float e, float tmax, TriangleHit& hit) {
+[[gnu::always_inline]] inline bool finish_lane(const Ray& ray, const WatertightRay& w, const TriangleBlock& b, std::uint32_t l,
+                                   float u, float v, float e, float mx, float my, float mz, float za, float zb,
+                                   float zc, float tmax, TriangleHit& hit) {
   Vec3 v0, v1, v2;
   block_triangle(b, l, v0, v1, v2);
   if (u == 0.0f || v == 0.0f || e == 0.0f) [[unlikely]]
     return intersect_triangle_axes<KX, KY, KZ>(ray, w, v0, v1, v2, tmax, hit);
-  // The lane's sheared coordinates, recomputed in scalar with the block
-  // test's operations (the same values) for the t error bound.
-  const Vec3 a = v0 - ray.origin, b2 = v1 - ray.origin, c = v2 - ray.origin;
-  using detail::axis;
-  const float rz3[3] = {axis<KZ>(a), axis<KZ>(b2), axis<KZ>(c)};
-  const float sx3[3] = {axis<KX>(a) - w.sx * rz3[0], axis<KX>(b2) - w.sx * rz3[1], axis<KX>(c) - w.sx * rz3[2]};
-  const float sy3[3] = {axis<KY>(a) - w.sy * rz3[0], axis<KY>(b2) - w.sy * rz3[1], axis<KY>(c) - w.sy * rz3[2]};
-  return finish_watertight(ray, u, v, e, sx3, sy3, rz3, w.sz * rz3[0], w.sz * rz3[1], w.sz * rz3[2], tmax, v0, v1,
-                           v2, hit);
+  return finish_watertight(ray, u, v, e, mx, my, mz, w.sz * za, w.sz * zb, w.sz * zc, tmax, v0, v1, v2, hit);
+}
+
+/// Lane by lane, the largest magnitude of three lanes' values (exact).
+[[gnu::always_inline]] inline LaneF max_abs_lanes(const LaneF (&x)[3]) {
+  auto mag = [](LaneF a) { return reinterpret_cast<LaneF>(reinterpret_cast<LaneI>(a) & 0x7fffffff); };
+  const LaneF a = mag(x[0]), b = mag(x[1]), c = mag(x[2]);
+  const LaneF ab = a > b ? a : b;
+  return ab > c ? ab : c;
 }
 
 /// Tests a packed cell's triangles in list order against `ray`; on a hit
@@ -162,14 +174,18 @@ template <int KX, int KY, int KZ, bool kAny>
   std::uint32_t left = cell.triangles;
   for (std::uint32_t k = 0; k < cell.block_count; ++k, left -= kBlockLanes) {
     const TriangleBlock& b = cell.blocks[k];
-    LaneF u, v, e;
-    std::uint32_t bits = block_candidates<KX, KY, KZ>(b, o, w, u, v, e);
+    BlockLanes bl;
+    std::uint32_t bits = block_candidates<KX, KY, KZ>(b, o, w, bl);
     if (left < kBlockLanes) bits &= (1u << left) - 1;
+    if (!bits) continue;
+    const LaneF mx = max_abs_lanes(bl.x), my = max_abs_lanes(bl.y), mz = max_abs_lanes(bl.z);
     while (bits) {
       const std::uint32_t l = std::uint32_t(__builtin_ctz(bits));
       bits &= bits - 1;
       TriangleHit th;
-      if (!finish_lane<KX, KY, KZ>(ray, w, b, l, u[l], v[l], e[l], hit_t, th)) continue;
+      if (!finish_lane<KX, KY, KZ>(ray, w, b, l, bl.u[l], bl.v[l], bl.e[l], mx[l], my[l], mz[l], bl.z[0][l],
+                                   bl.z[1][l], bl.z[2][l], hit_t, th))
+        continue;
       hit_t = th.t;
       hit_u = th.u;
       hit_v = th.v;

@@ -127,26 +127,46 @@ namespace detail {
 /// sums add gamma(7) of their magnitudes; the whole is doubled for the
 /// first-order terms left out. Relative to the operands throughout: the
 /// test answers alike at any scale and position.
-[[gnu::always_inline]] inline float triangle_t_error(float t, float u, float v, float e, float inv_det,
-                                                     const float sx3[3], const float sy3[3], const float rz3[3],
-                                                     float az, float bz, float cz) {
-  auto max3 = [](float a, float b, float c) { return std::max(std::fabs(a), std::max(std::fabs(b), std::fabs(c))); };
+/// `max_xt`, `max_yt`: the largest |sheared x| and |sheared y| of the three
+/// vertices relative to the origin; `max_zr`: their largest |z| before the
+/// scaling by 1/d_z (world units); az, bz, cz: their z after it. The edge
+/// functions never have opposite signs here (the sign test came first), so
+/// |u| + |v| + |e| = |det| up to det's two roundings: |inv_det| stands for
+/// sum |e_i| / |det| with a factor 1 + 2^-21 for those.
+[[gnu::always_inline]] inline float triangle_t_error(float t, float inv_det, float max_xt, float max_yt,
+                                                     float max_zr, float az, float bz, float cz) {
   constexpr float u1 = 0x1p-24f;
   constexpr float g2 = 2 * u1 / (1 - 2 * u1), g5 = 5 * u1 / (1 - 5 * u1), g7 = 7 * u1 / (1 - 7 * u1);
-  const float max_zr = max3(rz3[0], rz3[1], rz3[2]);
-  const float max_xt = max3(sx3[0], sx3[1], sx3[2]), max_yt = max3(sy3[0], sy3[1], sy3[2]);
+  constexpr float kSumE = 1 + 0x1p-21f;
   const float delta_x = g5 * (max_xt + max_zr), delta_y = g5 * (max_yt + max_zr);
   const float delta_e = 2 * (g2 * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
   const float spread = std::fabs(az - t) + std::fabs(bz - t) + std::fabs(cz - t);
-  const float sum_e = std::fabs(u) + std::fabs(v) + std::fabs(e);
-  return 2 * (delta_e * spread + g7 * (max3(az, bz, cz) + std::fabs(t)) * sum_e) * std::fabs(inv_det);
+  const float max_z = std::max(std::fabs(az), std::max(std::fabs(bz), std::fabs(cz)));
+  return 2 * (delta_e * spread * std::fabs(inv_det) + g7 * kSumE * (max_z + std::fabs(t)));
+}
+
+/// finish_watertight's answer where the float t is not clearly larger than
+/// its error bound `t_err`: false within kNearOrigin float spacings of the
+/// origin (a surface the ray was spawned from, or one within rounding of
+/// it: not a hit); beyond that the float t is just not good enough (a huge
+/// triangle), so the plane is asked in double and `t` becomes its answer
+/// when that exceeds its own bound. Out of line: the callers' loops keep
+/// their registers.
+[[gnu::noinline]] inline bool refine_unreliable_t(const Ray& ray, float t_err, const Vec3& v0, const Vec3& v1,
+                                                  const Vec3& v2, float& t) {
+  if (t_err * max_component(abs(ray.direction)) <= kNearOrigin * max_component(abs(ray.origin))) return false;
+  double td = 0, err = 0;
+  if (!triangle_plane_t(ray, v0, v1, v2, td, err) || !(td > err)) return false;
+  t = static_cast<float>(td);
+  return true;
 }
 
 /// The watertight test's last steps (Woop, Benthin, Wald 2013), after its
 /// sign test, shared by every form of the test so that they round alike:
-/// from the edge functions u, v, e, the sheared x and y of the three
-/// vertices relative to the origin (`sx3`, `sy3`), their z before (`rz3`,
-/// world units) and after the scaling by 1/d_z (az, bz, cz), the hit's t,
+/// from the edge functions u, v, e, the largest |sheared x| and |sheared y|
+/// of the three vertices relative to the origin (`max_xt`, `max_yt`), their
+/// largest |z| before (`max_zr`, world units) and their z after the scaling
+/// by 1/d_z (az, bz, cz), the hit's t,
 /// accepted when ray.tmin < t < tmax, then the degeneracy check, then the
 /// barycentrics. Where the float t is not clearly larger than its own
 /// rounding-error bound (triangle_t_error: an origin lying in or next to
@@ -157,25 +177,18 @@ namespace detail {
 /// the plane (triangle_plane_t) and the hit counts only if that t exceeds
 /// its own, far smaller, bound: an eye in a polygon's plane does not see it
 /// at t = 1e-7, and a 1e8 ground seen from 1e-2 away is hit where it is.
-[[gnu::always_inline]] inline bool finish_watertight(const Ray& ray, float u, float v, float e, const float sx3[3],
-                                                     const float sy3[3], const float rz3[3], float az, float bz,
-                                                     float cz, float tmax, const Vec3& v0, const Vec3& v1,
-                                                     const Vec3& v2, TriangleHit& hit) {
+[[gnu::always_inline]] inline bool finish_watertight(const Ray& ray, float u, float v, float e, float max_xt,
+                                                     float max_yt, float max_zr, float az, float bz, float cz,
+                                                     float tmax, const Vec3& v0, const Vec3& v1, const Vec3& v2,
+                                                     TriangleHit& hit) {
   const float det = u + v + e;
   if (det == 0.0f) return false;
   const float t_scaled = u * az + v * bz + e * cz;
   const float inv_det = 1.0f / det;
   float t = t_scaled * inv_det;
-  const float t_err = triangle_t_error(t, u, v, e, inv_det, sx3, sy3, rz3, az, bz, cz);
+  const float t_err = triangle_t_error(t, inv_det, max_xt, max_yt, max_zr, az, bz, cz);
   if (!(t_err < 0.5f * std::fabs(t))) [[unlikely]] {
-    // Within kNearOrigin float spacings of the origin: a surface the ray
-    // was spawned from (or one within rounding of it), not a hit. Beyond
-    // that the float t is just not good enough (a huge triangle): ask the
-    // plane in double.
-    if (t_err * max_component(abs(ray.direction)) <= kNearOrigin * max_component(abs(ray.origin))) return false;
-    double td = 0, err = 0;
-    if (!triangle_plane_t(ray, v0, v1, v2, td, err) || !(td > err)) return false;
-    t = static_cast<float>(td);
+    if (!refine_unreliable_t(ray, t_err, v0, v1, v2, t)) return false;
   }
   if (!(t > ray.tmin && t < tmax)) return false;
   if (triangle_is_degenerate(v0, v1, v2)) [[unlikely]] return false;
@@ -216,9 +229,10 @@ template <int KX, int KY, int KZ>
     e = static_cast<float>(double(bx) * ay - double(by) * ax);
     if ((u < 0.0f || v < 0.0f || e < 0.0f) && (u > 0.0f || v > 0.0f || e > 0.0f)) return false;
   }
-  const float sx3[3] = {ax, bx, cx}, sy3[3] = {ay, by, cy}, rz3[3] = {axis<KZ>(a), axis<KZ>(b), axis<KZ>(c)};
-  return detail::finish_watertight(ray, u, v, e, sx3, sy3, rz3, w.sz * axis<KZ>(a), w.sz * axis<KZ>(b),
-                                   w.sz * axis<KZ>(c), tmax, v0, v1, v2, hit);
+  auto max_abs = [](float p, float q, float r) { return std::max(std::fabs(p), std::max(std::fabs(q), std::fabs(r))); };
+  return detail::finish_watertight(ray, u, v, e, max_abs(ax, bx, cx), max_abs(ay, by, cy),
+                                   max_abs(axis<KZ>(a), axis<KZ>(b), axis<KZ>(c)), w.sz * axis<KZ>(a),
+                                   w.sz * axis<KZ>(b), w.sz * axis<KZ>(c), tmax, v0, v1, v2, hit);
 }
 
 /// Watertight ray/triangle test (Woop, Benthin, Wald 2013): see
@@ -257,6 +271,38 @@ struct TriangleRayLanes {
 #endif
 };
 
+#if defined(__SSE2__)
+namespace detail {
+
+/// The end of intersect_triangle_record_axes for a candidate (the ray's line
+/// crosses the triangle, or an edge function is 0: rare), out of line so
+/// that the per-primitive loop it is called from stays small and keeps its
+/// state in registers. Lanes as there: U = (u, v, e), X and Y the sheared
+/// vertices, ckz their z relative to the origin, sz = 1/d_z.
+template <int KX, int KY, int KZ>
+[[gnu::always_inline]] inline bool finish_triangle_lanes(const Ray& ray, const WatertightRay& w, const float* v, __m128 U,
+                                             __m128 X, __m128 Y, __m128 ckz, __m128 sz, float tmax,
+                                             TriangleHit& hit) {
+  if (_mm_movemask_ps(_mm_cmpeq_ps(U, _mm_setzero_ps())) & 7) [[unlikely]]  // an edge function is 0: double fallback
+    return intersect_triangle_axes<KX, KY, KZ>(ray, w, Vec3{v[0], v[1], v[2]}, Vec3{v[3], v[4], v[5]},
+                                               Vec3{v[6], v[7], v[8]}, tmax, hit);
+  // The largest magnitude of lanes 0..2 (lane 3 is no vertex): exact, as in scalar.
+  const __m128 magnitude = _mm_castsi128_ps(_mm_set_epi32(0, 0x7fffffff, 0x7fffffff, 0x7fffffff));
+  auto max_abs = [&](__m128 x) {
+    x = _mm_and_ps(x, magnitude);
+    x = _mm_max_ps(x, _mm_shuffle_ps(x, x, _MM_SHUFFLE(2, 3, 0, 1)));
+    return _mm_cvtss_f32(_mm_max_ps(x, _mm_shuffle_ps(x, x, _MM_SHUFFLE(1, 0, 3, 2))));
+  };
+  alignas(16) float uve[4], z[4];
+  _mm_store_ps(uve, U);
+  _mm_store_ps(z, _mm_mul_ps(sz, ckz));
+  return finish_watertight(ray, uve[0], uve[1], uve[2], max_abs(X), max_abs(Y), max_abs(ckz), z[0], z[1], z[2], tmax,
+                           Vec3{v[0], v[1], v[2]}, Vec3{v[3], v[4], v[5]}, Vec3{v[6], v[7], v[8]}, hit);
+}
+
+}  // namespace detail
+#endif
+
 /// The watertight triangle test of intersect_triangle_axes on a triangle
 /// record's vertex array `v` (v0.xyz v1.xyz v2.xyz, as in Primitive::data;
 /// 12 floats must be readable, the last 3 are ignored), with the shear and
@@ -288,18 +334,7 @@ template <int KX, int KY, int KZ>
   const __m128 U = _mm_sub_ps(_mm_mul_ps(x2, y1), _mm_mul_ps(y2, x1));
   const int neg = _mm_movemask_ps(_mm_cmplt_ps(U, zero)) & 7, pos = _mm_movemask_ps(_mm_cmpgt_ps(U, zero)) & 7;
   if (neg && pos) return false;
-  if (_mm_movemask_ps(_mm_cmpeq_ps(U, zero)) & 7) [[unlikely]]  // an edge function is 0: double fallback
-    return intersect_triangle_axes<KX, KY, KZ>(ray, w, Vec3{v[0], v[1], v[2]}, Vec3{v[3], v[4], v[5]},
-                                               Vec3{v[6], v[7], v[8]}, tmax, hit);
-  // The ray's line crosses the triangle (rare): finish in scalar, on the same values.
-  alignas(16) float uve[4], z[4], xs[4], ys[4], zr[4];
-  _mm_store_ps(uve, U);
-  _mm_store_ps(z, _mm_mul_ps(lanes.sz, ckz));
-  _mm_store_ps(xs, X);
-  _mm_store_ps(ys, Y);
-  _mm_store_ps(zr, ckz);
-  return detail::finish_watertight(ray, uve[0], uve[1], uve[2], xs, ys, zr, z[0], z[1], z[2], tmax,
-                                   Vec3{v[0], v[1], v[2]}, Vec3{v[3], v[4], v[5]}, Vec3{v[6], v[7], v[8]}, hit);
+  return detail::finish_triangle_lanes<KX, KY, KZ>(ray, w, v, U, X, Y, ckz, lanes.sz, tmax, hit);
 #else
   return intersect_triangle_axes<KX, KY, KZ>(ray, w, Vec3{v[0], v[1], v[2]}, Vec3{v[3], v[4], v[5]},
                                              Vec3{v[6], v[7], v[8]}, tmax, hit);

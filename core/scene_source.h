@@ -1,10 +1,12 @@
-// Where a scene comes from: an NFF file or a built-in SPD generator.
+// Where a scene comes from: an NFF file, a mesh file or a built-in SPD
+// generator.
 //
 // Place in the data flow: the SCENE argument of every raynode subcommand ->
 // load_scene -> Scene. A spec naming an existing file that is not a
-// directory (a FIFO or a device too), containing a '/', or ending in `.nff`
-// or `.nff.gz`, is read as NFF; anything else is parsed as `name[:size]` of a
-// built-in generator (spd.h).
+// directory (a FIFO or a device too), containing a '/', or ending in `.nff`,
+// `.nff.gz` or a mesh extension, is a file: a mesh (mesh_file.h: OBJ, PLY, STL, OFF, glTF, ...
+// by extension, or by its first bytes) or else NFF; anything else is parsed
+// as `name[:size]` of a built-in generator (spd.h).
 #pragma once
 
 #include <string>
@@ -12,6 +14,7 @@
 
 #include "core/scene.h"
 #include "core/scene_transform.h"
+#include "core/scene_view.h"
 
 namespace raynode::core {
 
@@ -23,16 +26,20 @@ struct SceneSource {
   std::string spec;    ///< path or name[:size]
   int tessellate = 0;  ///< --tessellate R (0 = keep curved primitives)
   SceneTransform transform;  ///< --scale / --translate, applied after tessellation
+  ViewOverride view;         ///< --eye / --at / --up / --fov, applied before `transform`
 };
 
 /// True if `spec` will be read as a file.
 bool is_scene_file(const std::string& spec);
 
-/// Loads the scene, tessellates it, then applies `transform`
-/// (transform_scene). Throws ParseError (malformed file, with file:line:col),
+/// Loads the scene, tessellates it, applies the view override
+/// (apply_view_override), then `transform` (transform_scene). A mesh's notes
+/// (defaults filled in, things skipped: mesh_file.h) go to stderr, one line
+/// each, prefixed "raynode: ". Throws ParseError (malformed file, with file:line:col),
 /// std::runtime_error (unreadable file, more than the memory limit:
 /// scene_file.h), std::invalid_argument (unknown generator, bad size, bad
-/// tessellation) or StopError (a stop was requested while reading, parsing
+/// tessellation, an unusable view override), std::runtime_error naming the
+/// file for a mesh Assimp cannot read, or StopError (a stop was requested while reading, parsing
 /// or tessellating: core/stop.h).
 Scene load_scene(const SceneSource& source);
 

@@ -16,15 +16,25 @@ struct Generator {
   const char* name;
   int default_size;  // the SPD program's own default size factor
   Scene (*make)(int size);
+  // For -t R when tessellate_scene's world-space tessellation would differ
+  // from SPD's (primitives written through a transform); null otherwise.
+  Scene (*make_tessellated)(int size, int resolution) = nullptr;
 };
 
-// In the order SPD 3.14 lists them.
+// The original five in the order SPD 3.14 lists them, then the rest of its
+// generators.
 constexpr Generator kGenerators[] = {
     {"teapot", 6, spd::make_teapot},
     {"mount", 6, spd::make_mount},
     {"rings", 7, spd::make_rings},
     {"tetra", 6, spd::make_tetra},
     {"balls", 4, spd::make_balls},
+    {"gears", 4, spd::make_gears},
+    {"tree", 11, spd::make_tree},
+    {"lattice", 12, spd::make_lattice},
+    {"shells", 5, spd::make_shells},
+    {"jacks", 1, spd::make_jacks, spd::make_jacks_tessellated},
+    {"sombrero", 1, spd::make_sombrero},
 };
 
 const Generator* find_generator(std::string_view name) {
@@ -49,6 +59,18 @@ std::string valid_names() {
 }
 
 }  // namespace
+
+namespace spd {
+
+void check_spd_size(const char* name, int size, int min_size, int max_size) {
+  if (size < min_size || size > max_size) {
+    throw std::invalid_argument(std::string(name) + ": size " + std::to_string(size) +
+                                " is out of range " + std::to_string(min_size) + ".." +
+                                std::to_string(max_size));
+  }
+}
+
+}  // namespace spd
 
 std::vector<std::string> spd_names() {
   std::vector<std::string> out;
@@ -84,7 +106,9 @@ Scene make_spd_scene(const SpdParams& params) {
     throw std::invalid_argument("SPD tessellation " + std::to_string(params.tessellate) +
                                 " must be 0 (curved) or at least 1");
   }
-  Scene scene = g->make(params.size == -1 ? g->default_size : params.size);
+  const int size = params.size == -1 ? g->default_size : params.size;
+  if (params.tessellate > 0 && g->make_tessellated) return g->make_tessellated(size, params.tessellate);
+  Scene scene = g->make(size);
   if (params.tessellate > 0) tessellate_scene(scene, params.tessellate);
   return scene;
 }

@@ -187,11 +187,7 @@ void check_matches_reference(const std::string& file) {
 }
 
 Scene make(const std::string& name, int size, int tessellate = 0) {
-  SpdParams params;
-  params.name = name;
-  params.size = size;
-  params.tessellate = tessellate;
-  return make_spd_scene(params);
+  return make_spd_scene(SpdParams{name, size, tessellate});
 }
 
 }  // namespace
@@ -368,9 +364,10 @@ TEST_CASE("spd: tessellate_scene counts a huge resolution without wrapping round
   CHECK_THROWS_AS(tessellate_scene(scene, 2147483647), std::invalid_argument);
 }
 
-TEST_CASE("spd: spd_names lists the five generators") {
+TEST_CASE("spd: spd_names lists the eleven generators of SPD 3.14") {
   const std::vector<std::string> names = spd_names();
-  CHECK(names == std::vector<std::string>{"teapot", "mount", "rings", "tetra", "balls"});
+  CHECK(names == std::vector<std::string>{"teapot", "mount", "rings", "tetra", "balls", "gears",
+                                          "tree", "lattice", "shells", "jacks", "sombrero"});
 }
 
 TEST_CASE("spd: parse_spd_spec reads name and optional size") {
