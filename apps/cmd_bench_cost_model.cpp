@@ -41,6 +41,7 @@ struct CostModelOptions {
   int repeat = 3;
   bool pager = true;
   std::vector<std::string> fit;  ///< features to fit; empty: all
+  GridChoice grid;               ///< --grid (default adaptive)
 };
 
 /// "name:size@R" -> SceneSource with --tessellate R.
@@ -188,6 +189,7 @@ void register_bench_cost_model_command(CLI::App& app) {
       ->check(CLI::Range(1, 100))
       ->capture_default_str();
   c->add_flag("!--no-pager", o->pager, "Skip the svm pager's costs");
+  add_grid_option(*c, o->grid);
   std::vector<std::string> names;
   for (int k = 0; k < core::kCostFeatureCount; ++k) names.push_back(core::cost_feature_name(core::CostFeature(k)));
   c->add_option("--fit", o->fit,
@@ -200,7 +202,9 @@ void register_bench_cost_model_command(CLI::App& app) {
     for (const std::string& text : o->scenes) {
       const core::SceneSource src = parse_scene(text);
       const core::Database db = core::make_database(core::load_scene(src));
-      const core::Grid grid = core::build_grid(db);
+      core::GridParams gp;
+      gp.kind = grid_kind_for(o->grid);
+      const core::Grid grid = core::build_grid(db, gp);
       fmt::print(stderr, "{}: tiles...\n", text);
       std::vector<core::CostSample> t = tile_samples(db, grid, o->width, o->height, o->repeat);
       tiles.insert(tiles.end(), t.begin(), t.end());

@@ -84,6 +84,7 @@ struct QualityOptions {
   std::string tessellations = "0,1,2,4";
   std::string spps = "1,2,3";
   std::string accels = "grid,embree";
+  GridChoice grid;  ///< --grid for the grid accelerator (default adaptive)
   std::string design = "pairs";
   int max_points = 200;
   int width = 128, height = 128;
@@ -255,7 +256,7 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 
 /// The database for `tessellate` with the accelerator `accel` built (cached).
 Prepared& prepare(std::map<int, Prepared>& cache, const std::string& scene, const core::ViewOverride& view,
-                  int tessellate, const std::string& accel) {
+                  int tessellate, const std::string& accel, core::GridKind grid_kind) {
   Prepared& p = cache[tessellate];
   if (!p.db) {
     core::SceneSource source(scene, tessellate);
@@ -267,7 +268,9 @@ Prepared& prepare(std::map<int, Prepared>& cache, const std::string& scene, cons
     p.embree = std::make_unique<core::EmbreeScene>(*p.db);
     p.embree_build_s = seconds_since(t0);
   } else if (accel == "grid" && !p.grid) {
-    p.grid = core::build_grid(*p.db);
+    core::GridParams gp;
+    gp.kind = grid_kind;
+    p.grid = core::build_grid(*p.db, gp);
     p.grid_build_s = seconds_since(t0);
   }
   return p;
@@ -475,7 +478,7 @@ void run_quality(QualityOptions o) {
   // shared mode (all cores) to save time: its image is bit-identical to
   // sequential mode's (core/render.h); its time is not part of the sweep.
   const auto t_all = std::chrono::steady_clock::now();
-  Prepared& analytic = prepare(cache, o.scene, o.view, 0, "grid");
+  Prepared& analytic = prepare(cache, o.scene, o.view, 0, "grid", grid_kind_for(o.grid));
   core::RenderParams ref_params = base;
   ref_params.spp = o.reference_spp;
   ref_params.max_depth = o.reference_depth;
@@ -560,7 +563,7 @@ void run_quality(QualityOptions o) {
   };
   for (std::size_t i = 0; i < design.size(); ++i) {
     const Settings& s = design[i];
-    prepared[i] = &prepare(cache, o.scene, o.view, s.tessellate, s.accel);
+    prepared[i] = &prepare(cache, o.scene, o.view, s.tessellate, s.accel, grid_kind_for(o.grid));
     Measured& m = points[i];
     m.primitives = prepared[i]->db->primitives.size();
     m.build_s = s.accel == "embree" ? prepared[i]->embree_build_s : prepared[i]->grid_build_s;
@@ -758,6 +761,7 @@ void register_bench_quality_command(CLI::App& app) {
   c->add_option("--spp", o->spps, "N to try (N x N stratified samples per pixel), comma-separated, in [1, 64]")
       ->capture_default_str();
   c->add_option("--accel", o->accels, "Accelerators to try: grid, embree (comma-separated)")->capture_default_str();
+  add_grid_option(*c, o->grid);
   c->add_option("--design", o->design, "Which points: star, pairs or full (see below)")
       ->check(CLI::IsMember({"star", "pairs", "full"}))
       ->capture_default_str();

@@ -1,6 +1,7 @@
 // `raynode scene info SCENE [--json]` and `raynode scene write SCENE -o FILE`.
 #include <fmt/core.h>
 
+#include <chrono>
 #include <nlohmann/json.hpp>
 
 #include "apps/commands.h"
@@ -51,9 +52,19 @@ void run_info(const InfoOptions& o) {
   if (!o.grid.empty()) {
     core::GridParams gp;
     gp.kind = o.grid == "uniform" ? core::GridKind::kUniform : core::GridKind::kAdaptive;
+    const auto start = std::chrono::steady_clock::now();
     const core::Grid g = core::build_grid(db, gp);
+    const double build_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     j["grid"] = grid_json(g);
-    grid_line = fmt::format("{}, {} empty leaf cells", grid_summary(g), g.empty_cells());
+    j["grid"]["build_s"] = build_s;
+    grid_line = fmt::format("{}, {} empty leaf cells, {:.1f} KiB, built in {:.3f} s", grid_summary(g), g.empty_cells(),
+                            g.bytes() / 1024.0, build_s);
+    const std::vector<GridLevel> levels = grid_levels(g);
+    if (g.kind() == core::GridKind::kAdaptive)
+      for (std::size_t i = 0; i < levels.size(); ++i)
+        grid_line += fmt::format("\n  level {}   {} grid{}, {} cells, {} leaf cells ({} empty), {} references", i,
+                                 levels[i].grids, levels[i].grids == 1 ? "" : "s", levels[i].cells,
+                                 levels[i].leaf_cells, levels[i].empty_cells, levels[i].references);
   }
   if (o.json) {
     fmt::print("{}\n", j.dump(2));
@@ -80,15 +91,12 @@ void register_scene_commands(CLI::App& app) {
   CLI::App* ci = scene->add_subcommand("info", "Print counts per entity kind (as the SPD programs count them)");
   add_scene_options(*ci, info->source);
   ci->add_flag("--json", info->json, "Print JSON instead of text");
-  ci->add_option("--grid", info->grid,
-                 "Also build the grid (adaptive, the default when given bare, or uniform) and print its "
-                 "resolution and occupancy")
-      ->expected(0, 1)
+  // A flag, so that `--grid SCENE` never takes the scene as its value.
+  ci->add_flag("--grid{adaptive}", info->grid,
+               "Also build the grid and print its structure (levels, cells and leaf cells per level, references, "
+               "bytes, build time): --grid or --grid=adaptive, or --grid=uniform")
       ->check(CLI::IsMember({"adaptive", "uniform"}));
-  ci->callback([ci, info] {
-    if (ci->count("--grid") > 0 && info->grid.empty()) info->grid = "adaptive";
-    run_info(*info);
-  });
+  ci->callback([info] { run_info(*info); });
 
   auto wr = std::make_shared<WriteOptions>();
   CLI::App* cw = scene->add_subcommand("write", "Write a scene as NFF (.nff, or .nff.gz for gzip)");

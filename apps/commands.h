@@ -66,6 +66,14 @@ core::GridKind grid_kind_for(const GridChoice& choice, const std::vector<std::st
 /// kind, top resolution, cells, leaf cells, sub-grids, depth, references,
 /// empty leaf cells, bytes.
 nlohmann::json grid_json(const core::Grid& grid);
+/// One level of a grid's hierarchy (0: the top grid; a uniform grid has
+/// only that): its grids, their cells, the cells that are leaves (hold no
+/// sub-grid), the empty ones among them and the primitive ids the leaves list.
+struct GridLevel {
+  std::uint64_t grids = 0, cells = 0, leaf_cells = 0, empty_cells = 0, references = 0;
+};
+/// Per level, as GridLevel (size: depth() + 1).
+std::vector<GridLevel> grid_levels(const core::Grid& grid);
 /// One line: "adaptive 24x24x24 top grid, 1234 sub-grids (depth 2), 98765
 /// leaf cells, 123456 references" or "uniform 64x64x64, 123456 references".
 std::string grid_summary(const core::Grid& grid);

@@ -98,7 +98,7 @@ void add_grid_option(CLI::App& cmd, GridChoice& choice) {
 
 core::GridKind grid_kind_for(const GridChoice& choice, const std::vector<std::string>& modes) {
   const auto uniform_only = std::find_if(modes.begin(), modes.end(),
-                                         [](const std::string& m) { return m == "svm" || m == "dataflow"; });
+                                         [](const std::string& m) { return m == "dataflow"; });
   if (!choice.given) return uniform_only != modes.end() ? core::GridKind::kUniform : core::GridKind::kAdaptive;
   if (uniform_only != modes.end() && *choice.given == core::GridKind::kAdaptive)
     throw UsageError("--grid adaptive: " + *uniform_only +
@@ -106,13 +106,45 @@ core::GridKind grid_kind_for(const GridChoice& choice, const std::vector<std::st
   return *choice.given;
 }
 
+std::vector<GridLevel> grid_levels(const core::Grid& grid) {
+  std::vector<GridLevel> levels(grid.depth() + 1);
+  auto count_leaf = [&](GridLevel& l, std::uint32_t leaf) {
+    const std::uint32_t n = grid.cell_start[leaf + 1] - grid.cell_start[leaf];
+    ++l.leaf_cells;
+    l.empty_cells += n == 0;
+    l.references += n;
+  };
+  if (grid.sub_grids.empty()) {  // uniform, or adaptive with nothing refined: the top grid alone
+    levels[0].grids = 1;
+    levels[0].cells = grid.info.cell_count();
+    for (std::uint32_t c = 0; c < grid.leaf_cells(); ++c) count_leaf(levels[0], c);
+    return levels;
+  }
+  for (const core::SubGrid& s : grid.sub_grids) {
+    GridLevel& l = levels[s.level];
+    ++l.grids;
+    l.cells += s.info.cell_count();
+    for (std::uint32_t c = 0; c < s.info.cell_count(); ++c)
+      if (!(grid.cell_entries[s.first_entry + c] & core::kSubGridEntry)) count_leaf(l, s.first_entry + c);
+  }
+  return levels;
+}
+
 nlohmann::json grid_json(const core::Grid& grid) {
+  nlohmann::json levels = nlohmann::json::array();
+  for (const GridLevel& l : grid_levels(grid))
+    levels.push_back({{"grids", l.grids},
+                      {"cells", l.cells},
+                      {"leaf_cells", l.leaf_cells},
+                      {"empty_leaf_cells", l.empty_cells},
+                      {"references", l.references}});
   return {{"kind", core::grid_kind_name(grid.kind())},
           {"resolution", {grid.info.res[0], grid.info.res[1], grid.info.res[2]}},
           {"cells", grid.info.cell_count()},
           {"leaf_cells", grid.leaf_cells()},
           {"sub_grids", grid.sub_grid_count()},
           {"depth", grid.depth()},
+          {"levels", levels},
           {"references", grid.references()},
           {"empty_cells", grid.empty_cells()},
           {"bytes", grid.bytes()}};

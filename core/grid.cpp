@@ -424,6 +424,12 @@ Grid build_adaptive_grid(const Database& db, const GridParams& params) {
   std::vector<std::uint32_t> all(db.primitives.size());
   for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
   AdaptiveBuilder(db, params, grid).build(top, all, 0);
+  grid.built_as = GridKind::kAdaptive;
+  if (grid.sub_grids.size() == 1) {  // nothing refined: the top grid alone, walked without the tables
+    grid.sub_grids = {};
+    grid.cell_entries = {};
+    grid.top_sub_grid_bits = {};
+  }
   return grid;
 }
 

@@ -112,6 +112,10 @@ inline constexpr double kSubGridGain = 0.5;
 
 /// Cap of Grid::empty_distance (it is stored in a byte).
 inline constexpr std::uint32_t kMaxEmptyDistance = 255;
+/// A view whose sub-grid tables are paged (has_paged_sub_grids, traverse.h)
+/// returns kSubGridCode + i from its cell visit for a cell that holds
+/// sub-grid i: above every empty-space distance, so one compare tells them apart.
+inline constexpr std::uint32_t kSubGridCode = kMaxEmptyDistance + 1;
 
 /// O(1) description of a grid: what every node replicates (svm) and what the
 /// traversal needs besides the cell lists.
@@ -178,7 +182,12 @@ struct Grid {
   /// cache where the entries (4 bytes a cell) would not.
   std::vector<std::uint64_t> top_sub_grid_bits;
 
-  GridKind kind() const { return sub_grids.empty() ? GridKind::kUniform : GridKind::kAdaptive; }
+  /// What build_grid was asked for. An adaptive build that refines no cell
+  /// keeps only its top grid (sub_grids, cell_entries and
+  /// top_sub_grid_bits empty), which every view walks as a uniform grid.
+  GridKind built_as = GridKind::kUniform;
+
+  GridKind kind() const { return built_as; }
   /// Leaf cells (== info.cell_count() for a uniform grid).
   std::uint32_t leaf_cells() const { return cell_start.empty() ? 0 : std::uint32_t(cell_start.size() - 1); }
   /// Grids below the top one (0 for a uniform grid).

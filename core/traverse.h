@@ -17,10 +17,14 @@
 // A view whose cell directory is not in the linear cell order also offers
 //   const CellKeyTables& cell_order() const;  // cell_order.h
 // and then gets each cell by its key in that order (svm's bricked directory).
-// A view of an adaptive grid (grid.h) offers
+// A view of an adaptive grid (grid.h) offers either
 //   SubGridTables sub_grid_tables() const;
-// and then gets leaf cell ids (walk_cells); the other views walk the
-// uniform grid of grid_info().
+// and then gets leaf cell ids (walk_cells), or, when its tables are not
+// plain arrays (svm's paged view),
+//   bool has_sub_grids() const;  SubGrid sub_grid(std::uint32_t i) const;
+// and then gets the ids the sub-grids' first_entry fields give, its cell
+// visit returning kSubGridCode + i for a cell holding sub-grid i. The
+// other views walk the uniform grid of grid_info() (the top grid).
 // DirectView (direct_view.h) is the plain-array one. A reference a view
 // returns may be valid only until the view's next call (svm's PagedView
 // evicts pages): callers keep a copy of what they need across calls, and
@@ -396,7 +400,42 @@ concept has_sub_grids = requires(const View& v) {
   { v.sub_grid_tables() } -> std::convertible_to<SubGridTables>;
 };
 
+/// Views over an adaptive grid whose sub-grid records and cell entries
+/// are read through the view (svm's PagedView): sub_grid(i) returns a copy
+/// of sub-grid i's record, whose first_entry is the id the view's cell
+/// visit takes for the sub-grid's cell 0 (its cells follow in linear
+/// order), and a cell visit returns kSubGridCode + i for a cell holding
+/// sub-grid i.
+template <class View>
+concept has_paged_sub_grids = requires(const View& v, std::uint32_t i) {
+  { v.has_sub_grids() } -> std::convertible_to<bool>;
+  { v.sub_grid(i) } -> std::convertible_to<SubGrid>;
+};
+
 namespace detail {
+
+/// walk_cells below one grid of a paged adaptive hierarchy: visit's
+/// kSubGridCode + j for a cell descends into sub-grid j. Returns false
+/// once visit stopped the walk.
+template <class View, class Visit>
+[[gnu::noinline]] bool walk_paged_sub_grid(const View& view, std::uint32_t index, const Ray& ray, const Vec3& inv_v,
+                                           Visit& visit) {
+  const SubGrid g = view.sub_grid(index);
+  bool stopped = false;
+  walk_grid(g.info, LinearCellOrder{}, ray, inv_v, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
+    const std::uint32_t d = visit(g.first_entry + cell, t_exit);
+    if (d == kStopWalk) {
+      stopped = true;
+      return kStopWalk;
+    }
+    if (d < kSubGridCode) [[likely]]
+      return d;
+    if (walk_paged_sub_grid(view, d - kSubGridCode, ray, inv_v, visit)) return 0;
+    stopped = true;
+    return kStopWalk;
+  });
+  return !stopped;
+}
 
 /// walk_cells below one grid of an adaptive hierarchy: walk_grid over
 /// sub_grids[index]; a cell holding a sub-grid is walked in turn (its
@@ -452,6 +491,19 @@ inline void walk_cells(const View& view, const Ray& ray, Visit&& visit) {
       });
       return;
     }
+  } else if constexpr (has_paged_sub_grids<View>) {
+    if (view.has_sub_grids()) {
+      // The top grid's cells in the view's order (linear or bricked keys);
+      // a visit's kSubGridCode + i descends into sub-grid i.
+      const Vec3 inv_v{1.0f / ray.direction.x, 1.0f / ray.direction.y, 1.0f / ray.direction.z};
+      walk_grid(view.grid_info(), cell_order_of(view), ray, inv_v, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
+        const std::uint32_t d = visit(cell, t_exit);
+        if (d == kStopWalk || d < kSubGridCode) [[likely]]
+          return d;
+        return detail::walk_paged_sub_grid(view, d - kSubGridCode, ray, inv_v, visit) ? 0 : kStopWalk;
+      });
+      return;
+    }
   }
   walk_grid(view.grid_info(), cell_order_of(view), ray, visit);
 }
@@ -486,6 +538,12 @@ template <int KX, int KY, int KZ, class View>
       });
     } else {
       empty = view.for_each_in_cell(cell, listed);
+    }
+    if constexpr (has_paged_sub_grids<View>) {
+      if (empty >= kSubGridCode) [[unlikely]] {
+        --stats.cells_visited;  // a cell holding a sub-grid: its leaves are counted
+        return empty;
+      }
     }
     if (found && hit.t <= t_exit) return kStopWalk;
     stats.empty_jumps += empty >= kMinJumpDistance;
@@ -523,6 +581,12 @@ template <int KX, int KY, int KZ, class View>
       });
     } else {
       empty = view.for_each_in_cell(cell, listed);
+    }
+    if constexpr (has_paged_sub_grids<View>) {
+      if (empty >= kSubGridCode) [[unlikely]] {
+        --stats.cells_visited;
+        return empty;
+      }
     }
     if (found) return kStopWalk;
     stats.empty_jumps += empty >= kMinJumpDistance;

@@ -32,22 +32,26 @@ std::uint64_t list_run_bytes(const core::Grid& grid, const core::CellBlocks* blo
   return n < 2 ? 0 : (1 + n) * sizeof(std::uint32_t);
 }
 
-/// Calls f(cell) for every cell of `g` in the order of its directory keys
-/// in `l` (l.directory_order, l.bricks): the linear order, or brick by
-/// brick, each brick's cells in linear order.
+/// Calls f(entry) for every directory entry of `grid` (its cells; for an
+/// adaptive grid, the cells of every grid of the hierarchy) in the order of
+/// their directory keys in `l` (l.directory_order, l.bricks): the top
+/// grid's cells in the linear order, or brick by brick, each brick's cells
+/// in linear order; then the sub-grids' cells in entry order.
 template <class F>
-void for_each_cell_in_key_order(const PageLayout& l, const core::GridInfo& g, F&& f) {
+void for_each_cell_in_key_order(const PageLayout& l, const core::Grid& grid, F&& f) {
+  const core::GridInfo& g = grid.info;
   if (l.directory_order == DirectoryOrder::kLinear) {
     for (std::uint32_t c = 0; c < g.cell_count(); ++c) f(c);
-    return;
+  } else {
+    const std::array<std::int32_t, 3>& d = l.bricks.dims;
+    for (std::int32_t z0 = 0; z0 < g.res[2]; z0 += d[2])
+      for (std::int32_t y0 = 0; y0 < g.res[1]; y0 += d[1])
+        for (std::int32_t x0 = 0; x0 < g.res[0]; x0 += d[0])
+          for (std::int32_t z = z0; z < std::min(z0 + d[2], g.res[2]); ++z)
+            for (std::int32_t y = y0; y < std::min(y0 + d[1], g.res[1]); ++y)
+              for (std::int32_t x = x0; x < std::min(x0 + d[0], g.res[0]); ++x) f(g.cell_index(x, y, z));
   }
-  const std::array<std::int32_t, 3>& d = l.bricks.dims;
-  for (std::int32_t z0 = 0; z0 < g.res[2]; z0 += d[2])
-    for (std::int32_t y0 = 0; y0 < g.res[1]; y0 += d[1])
-      for (std::int32_t x0 = 0; x0 < g.res[0]; x0 += d[0])
-        for (std::int32_t z = z0; z < std::min(z0 + d[2], g.res[2]); ++z)
-          for (std::int32_t y = y0; y < std::min(y0 + d[1], g.res[1]); ++y)
-            for (std::int32_t x = x0; x < std::min(x0 + d[0], g.res[0]); ++x) f(g.cell_index(x, y, z));
+  for (std::uint32_t e = g.cell_count(); e < l.cells; ++e) f(e);
 }
 
 /// The lists segment: every listed cell's run, cells in `l`'s key order
@@ -60,7 +64,7 @@ template <class Place>
 std::uint64_t place_lists(const PageLayout& l, const core::Grid& grid, const core::CellBlocks* blocks, Place&& place) {
   const std::uint32_t page_size = l.page_size;
   std::uint64_t cursor = 0;
-  for_each_cell_in_key_order(l, grid.info, [&](std::uint32_t c) {
+  for_each_cell_in_key_order(l, grid, [&](std::uint32_t c) {
     const std::uint64_t bytes = list_run_bytes(grid, blocks, c);
     if (bytes == 0) return;
     const std::uint64_t room = page_size - cursor % page_size;
@@ -80,12 +84,12 @@ std::uint64_t place_lists(const PageLayout& l, const core::Grid& grid, const cor
 /// address of its header). Returns the segment's used bytes; throws
 /// std::length_error past the 1 GiB a directory entry can address.
 template <class Place>
-std::uint64_t place_packed(const PageLayout& l, const core::GridInfo& g, const core::CellBlocks& blocks,
+std::uint64_t place_packed(const PageLayout& l, const core::Grid& grid, const core::CellBlocks& blocks,
                            Place&& place) {
   const std::uint32_t page_size = l.page_size;
   const std::uint64_t block = sizeof(core::TriangleBlock), per_page = page_size / block;
   std::uint64_t cursor = 0;
-  for_each_cell_in_key_order(l, g, [&](std::uint32_t c) {
+  for_each_cell_in_key_order(l, grid, [&](std::uint32_t c) {
     const std::uint64_t n = blocks.start[c + 1] - blocks.start[c];
     if (n == 0) return;
     const std::uint64_t bytes = kPackedHeaderBytes + n * block, in_page = cursor % page_size;
@@ -119,6 +123,7 @@ const char* segment_name(Segment s) {
     case Segment::kPrimitives: return "primitives";
     case Segment::kNormals: return "normals";
     case Segment::kBlocks: return "blocks";
+    case Segment::kSubGrids: return "sub-grids";
   }
   return "?";
 }
@@ -143,7 +148,11 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
   PageLayout l;
   l.page_size = page_size;
   l.page_shift = std::uint32_t(std::countr_zero(page_size));
-  l.cells = grid.info.cell_count();
+  l.cells = grid.leaf_cells();
+  l.top_cells = grid.info.cell_count();
+  l.sub_grids = std::uint32_t(grid.sub_grids.size());
+  if (l.sub_grids > kMaxEntryValue - core::kSubGridCode)
+    throw std::length_error(fmt::format("svm: {} sub-grids, more than a directory entry can name", l.sub_grids));
   l.primitives = std::uint32_t(db.primitives.size());
   l.normal_sets = std::uint32_t(db.vertex_normals.size());
   l.blocks_per_page = page_size / std::uint32_t(sizeof(core::TriangleBlock));
@@ -160,7 +169,7 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
                                         l.primitives));
   std::uint64_t listed = 0;
   for (std::uint32_t c = 0; c < l.cells; ++c) {
-    const std::uint32_t n = grid.cell_start[c + 1] - grid.cell_start[c];
+    const std::uint32_t n = grid.cell_start[c + 1] - grid.cell_start[c];  // 0 for a cell holding a sub-grid
     if (is_packed(blocks, c)) ++l.packed_cells;
     else if (n == 1) ++l.single_cells;
     else if (n > 1) {
@@ -179,29 +188,32 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
 
   const std::uint64_t list_bytes = place_lists(l, grid, blocks, [](std::uint32_t, std::uint32_t) {});
   const std::uint64_t block_bytes =
-      blocks ? place_packed(l, grid.info, *blocks, [](std::uint32_t, std::uint32_t) {}) : 0;
+      blocks ? place_packed(l, grid, *blocks, [](std::uint32_t, std::uint32_t) {}) : 0;
   if (block_bytes > 0xffffffffull)  // the blocks' byte addresses are 32-bit
     throw std::length_error(fmt::format("svm: the packed cells need more than 4 GiB ({} blocks)", blocks->blocks.size()));
   const std::uint64_t block_pages = pages_for(block_bytes, page_size);
-  std::uint64_t dir_pages = (std::uint64_t(l.cells) + (1u << l.directory_shift) - 1) >> l.directory_shift;
-  if (order == DirectoryOrder::kBricked) {
-    dir_pages = l.bricks.keys(grid.info) >> l.directory_shift;
-    if (l.bricks.keys(grid.info) > 0x7fffffffull)
-      throw std::length_error(fmt::format("svm: a bricked directory of {} entries does not fit 31-bit keys",
-                                          l.bricks.keys(grid.info)));
-  }
+  std::uint64_t top_keys = l.top_cells;
+  if (order == DirectoryOrder::kBricked) top_keys = l.bricks.keys(grid.info);  // whole pages of bricks
+  const std::uint64_t keys = top_keys + (l.cells - l.top_cells);
+  if (keys > 0x7fffffffull)
+    throw std::length_error(fmt::format("svm: a directory of {} entries does not fit 31-bit keys", keys));
+  l.top_keys = std::uint32_t(top_keys);
+  const std::uint64_t dir_pages = (keys + (1u << l.directory_shift) - 1) >> l.directory_shift;
+  const std::uint64_t sub_grid_pages = pages_for(std::uint64_t(l.sub_grids) * sizeof(PagedSubGrid), page_size);
   const std::uint64_t list_pages = pages_for(list_bytes, page_size);
   const std::uint64_t prim_pages = (std::uint64_t(l.primitives) + (1u << l.primitive_shift) - 1) >> l.primitive_shift;
   const std::uint64_t normal_pages =
       l.normals_per_page ? (std::uint64_t(l.normal_sets) + l.normals_per_page - 1) / l.normals_per_page : 0;
   if (l.normal_sets > 0 && l.normals_per_page == 0)
     throw std::invalid_argument(fmt::format("page size {} B cannot hold a 36-byte vertex-normal record", page_size));
-  const std::uint64_t total = dir_pages + list_pages + prim_pages + normal_pages + block_pages;
+  const std::uint64_t total = dir_pages + sub_grid_pages + list_pages + prim_pages + normal_pages + block_pages;
   if (total >= 0xffffffffull)
     throw std::length_error(fmt::format("svm: the database needs {} pages of {} B, more than 2^32", total, page_size));
   l.directory_first = 0;
   l.directory_pages = std::uint32_t(dir_pages);
-  l.list_first = l.directory_first + l.directory_pages;
+  l.sub_grid_first = l.directory_first + l.directory_pages;
+  l.sub_grid_pages = std::uint32_t(sub_grid_pages);
+  l.list_first = l.sub_grid_first + l.sub_grid_pages;
   l.list_pages = std::uint32_t(list_pages);
   l.primitive_first = l.list_first + l.list_pages;
   l.primitive_pages = std::uint32_t(prim_pages);
@@ -214,7 +226,7 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
     l.blocks = std::uint32_t(blocks->blocks.size());
   }
   l.pages = std::uint32_t(total);
-  l.object_bytes = std::uint64_t(l.cells) * sizeof(DirectoryEntry) +
+  l.object_bytes = std::uint64_t(l.cells) * sizeof(DirectoryEntry) + std::uint64_t(l.sub_grids) * sizeof(PagedSubGrid) +
                    (std::uint64_t(l.listed_cells) + l.list_ids) * sizeof(std::uint32_t) +
                    std::uint64_t(l.packed_cells) * kPackedHeaderBytes +
                    std::uint64_t(l.primitives) * sizeof(core::Primitive) +
@@ -225,12 +237,10 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
 
 PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, std::uint32_t page_size,
                              const core::CellBlocks* blocks, DirectoryOrder order) {
-  if (grid.kind() != core::GridKind::kUniform)
-    throw std::invalid_argument("svm: pages only the uniform grid (core::GridKind::kUniform), got an adaptive grid");
-  if (grid.empty_distance.size() != grid.info.cell_count())
+  if (grid.empty_distance.size() != grid.leaf_cells() || grid.leaf_cells() < grid.info.cell_count())
     throw std::invalid_argument(fmt::format("svm: the grid has {} empty-space distances for {} cells (not built by "
                                             "core::build_grid?)",
-                                            grid.empty_distance.size(), grid.info.cell_count()));
+                                            grid.empty_distance.size(), grid.leaf_cells()));
   PagedImage image;
   image.layout = make_page_layout(db, grid, page_size, blocks, order);
   const PageLayout& l = image.layout;
@@ -245,14 +255,15 @@ PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, s
   auto put = [](std::byte* to, std::uint32_t word) { std::memcpy(to, &word, sizeof word); };
   const core::GridInfo& g = grid.info;
   auto entry = [&](std::uint32_t c) {
-    const std::uint32_t x = c % std::uint32_t(g.res[0]), yz = c / std::uint32_t(g.res[0]);
-    const std::uint32_t key =
-        l.directory_key(g, std::int32_t(x), std::int32_t(yz % std::uint32_t(g.res[1])), std::int32_t(yz / std::uint32_t(g.res[1])));
+    const std::uint32_t key = l.entry_key(g, c);
     return at(l.directory_page(key), l.directory_offset(key));
   };
+  const bool adaptive = l.sub_grids > 0;
   for (std::uint32_t c = 0; c < l.cells; ++c) {
     const std::uint32_t begin = grid.cell_start[c], end = grid.cell_start[c + 1];
-    if (begin == end) put(entry(c), kEmptyCell | grid.empty_distance[c]);
+    if (adaptive && (grid.cell_entries[c] & core::kSubGridEntry))
+      put(entry(c), kEmptyCell | (core::kSubGridCode + (grid.cell_entries[c] & ~core::kSubGridEntry)));
+    else if (begin == end) put(entry(c), kEmptyCell | grid.empty_distance[c]);
     else if (end - begin == 1 && !is_packed(blocks, c)) put(entry(c), kSingleCell | grid.cell_primitives[begin]);
   }
   std::byte* lists = at(l.list_first, 0);
@@ -264,13 +275,18 @@ PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, s
   });
   if (blocks) {
     std::byte* runs = at(l.block_first, 0);
-    place_packed(l, g, *blocks, [&](std::uint32_t c, std::uint32_t header) {
+    place_packed(l, grid, *blocks, [&](std::uint32_t c, std::uint32_t header) {
       put(entry(c), kPackedCell | header);
       put(runs + header, grid.cell_start[c + 1] - grid.cell_start[c]);  // the rest of the header stays zero
       for (std::uint32_t k = blocks->start[c]; k < blocks->start[c + 1]; ++k)
         std::memcpy(runs + l.packed_block_address(header, k - blocks->start[c]), &blocks->blocks[k],
                     sizeof(core::TriangleBlock));
     });
+  }
+  // Sub-grid records: each grid's description and its cell 0's key.
+  for (std::uint32_t i = 0; i < l.sub_grids; ++i) {
+    const PagedSubGrid r{grid.sub_grids[i].info, l.entry_key(g, grid.sub_grids[i].first_entry)};
+    std::memcpy(base + l.sub_grid_address(i), &r, sizeof r);
   }
   // Primitives, then vertex normals.
   for (std::uint32_t id = 0; id < l.primitives; ++id)

@@ -18,7 +18,13 @@
 //              jumps need no other replicated or paged data), the one
 //              primitive id of an unpacked cell that lists one, or else
 //              the byte address of the cell's list, or of a packed cell's
-//              run of blocks;
+//              run of blocks. For an adaptive grid (core/grid.h) these are
+//              the top grid's cells; the sub-grids' cells follow, each
+//              sub-grid's in its linear order, sub-grids in build order,
+//              and a cell that holds sub-grid i has the entry
+//              kSubGridCode + i (an "empty" tag above every distance);
+//   sub-grids  adaptive only: one 64-byte PagedSubGrid record per grid of
+//              the hierarchy (index 0 the top grid), page_size/64 per page;
 //   lists      for each unpacked cell that lists two primitives or more, a
 //              header word (how many) followed by the primitive ids (4
 //              bytes each), cells in the directory's key order (so that
@@ -99,11 +105,22 @@ const char* directory_order_name(DirectoryOrder o);
 /// std::invalid_argument naming the text otherwise.
 std::optional<DirectoryOrder> parse_directory_order(const std::string& text);
 
-/// The segments of the shared virtual memory, in page order.
-enum class Segment : std::uint8_t { kDirectory, kLists, kPrimitives, kNormals, kBlocks };
-inline constexpr std::size_t kSegments = 5;
-/// "directory", "lists", "primitives", "normals", "blocks".
+/// The segments of the shared virtual memory (in page order: directory,
+/// sub-grids, lists, primitives, normals, blocks).
+enum class Segment : std::uint8_t { kDirectory, kLists, kPrimitives, kNormals, kBlocks, kSubGrids };
+inline constexpr std::size_t kSegments = 6;
+/// "directory", "lists", "primitives", "normals", "blocks", "sub-grids".
 const char* segment_name(Segment s);
+
+/// One grid of an adaptive hierarchy as svm pages it: the walk's
+/// description of it and the directory key of its cell 0 (its cells'
+/// entries follow in its linear cell order). 64 bytes, so a record never
+/// straddles a page.
+struct PagedSubGrid {
+  core::GridInfo info;
+  std::uint32_t first_key = 0;
+};
+static_assert(sizeof(PagedSubGrid) == 64, "a sub-grid record is a power of two not above the smallest page");
 
 /// Smallest page: one Primitive record.
 inline constexpr std::uint32_t kMinPageSize = sizeof(core::Primitive);
@@ -118,6 +135,7 @@ struct PageLayout {
   std::uint32_t pages = 0;         ///< pages in the shared virtual memory
 
   std::uint32_t directory_first = 0, directory_pages = 0;
+  std::uint32_t sub_grid_first = 0, sub_grid_pages = 0;
   std::uint32_t list_first = 0, list_pages = 0;
   std::uint32_t primitive_first = 0, primitive_pages = 0;
   std::uint32_t normals_first = 0, normals_pages = 0;
@@ -133,7 +151,14 @@ struct PageLayout {
   std::uint32_t normals_per_page = 0;  ///< TriangleNormals per page
   std::uint32_t blocks_per_page = 0;   ///< TriangleBlocks per page (a long run's pages after its first)
 
+  /// Directory entries in use: the grid's cells (adaptive: of every grid
+  /// of the hierarchy); the top grid's are the first top_cells.
   std::uint32_t cells = 0, primitives = 0, normal_sets = 0;
+  std::uint32_t top_cells = 0;  ///< cells of the (top) grid
+  /// Directory keys of the top grid (its cells, or its bricks' slots): a
+  /// sub-grid cell's entry e (>= top_cells) has key top_keys + e - top_cells.
+  std::uint32_t top_keys = 0;
+  std::uint32_t sub_grids = 0;  ///< PagedSubGrid records (0: a uniform grid)
   std::uint32_t listed_cells = 0;  ///< unpacked cells with a list (two primitives or more)
   std::uint32_t single_cells = 0;  ///< cells whose one primitive is in the directory entry
   std::uint32_t list_ids = 0;      ///< primitive ids in the lists segment
@@ -150,6 +175,7 @@ struct PageLayout {
     if (page >= normals_first) return Segment::kNormals;
     if (page >= primitive_first) return Segment::kPrimitives;
     if (page >= list_first) return Segment::kLists;
+    if (page >= sub_grid_first) return Segment::kSubGrids;
     return Segment::kDirectory;
   }
   /// Bytes of the shared virtual memory (pages x page size).
@@ -170,6 +196,19 @@ struct PageLayout {
   std::uint32_t directory_page(std::uint32_t key) const { return directory_first + (key >> directory_shift); }
   std::uint32_t directory_offset(std::uint32_t key) const {
     return (key & ((1u << directory_shift) - 1)) * std::uint32_t(sizeof(DirectoryEntry));
+  }
+  /// The directory key of a grid's entry e (a cell of a uniform grid, or
+  /// Grid::cell_entries' index of an adaptive one): the top grid's cells
+  /// by directory_key, the sub-grids' cells after them in entry order.
+  std::uint32_t entry_key(const core::GridInfo& top, std::uint32_t e) const {
+    if (e >= top_cells) return top_keys + (e - top_cells);
+    const std::uint32_t x = e % std::uint32_t(top.res[0]), yz = e / std::uint32_t(top.res[0]);
+    return directory_key(top, std::int32_t(x), std::int32_t(yz % std::uint32_t(top.res[1])),
+                         std::int32_t(yz / std::uint32_t(top.res[1])));
+  }
+  /// The shared-virtual-memory address of sub-grid record i.
+  std::uint64_t sub_grid_address(std::uint32_t i) const {
+    return address(sub_grid_first) + std::uint64_t(i) * sizeof(PagedSubGrid);
   }
   std::uint32_t primitive_page(std::uint32_t id) const { return primitive_first + (id >> primitive_shift); }
   std::uint32_t primitive_offset(std::uint32_t id) const {
@@ -250,10 +289,10 @@ struct PagedImage {
   }
 };
 
-/// Lays out `db` and `grid` (and the packed cells of `blocks`, if given) in
-/// pages as described in the file comment. Same errors as
-/// make_page_layout, and std::invalid_argument when `grid` lacks its
-/// empty-space distances (core::build_grid computes them).
+/// Lays out `db` and `grid`, uniform or adaptive (and the packed cells of
+/// `blocks`, if given) in pages as described in the file comment. Same
+/// errors as make_page_layout, and std::invalid_argument when `grid` lacks
+/// its empty-space distances (core::build_grid computes them).
 PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, std::uint32_t page_size,
                              const core::CellBlocks* blocks = nullptr,
                              DirectoryOrder order = DirectoryOrder::kLinear);

@@ -26,6 +26,11 @@
 //
 // The directory's entries lie in the linear cell order or in bricks
 // (DirectoryOrder); BrickedPagedView makes the walk keep bricked keys.
+// For an adaptive grid the top grid is walked in that order; a cell
+// holding a sub-grid has the entry kSubGridCode + i, which visit_cell
+// returns as it returns an empty cell's distance, and the walk
+// (core/traverse.h, has_paged_sub_grids) reads sub-grid i's record
+// through sub_grid(i) and walks its cells by their directory keys.
 //
 // Thread safety: owner node thread only.
 #pragma once
@@ -54,6 +59,15 @@ class PagedView {
       : PagedView(pager, grid, materials, DirectoryOrder::kLinear) {}
 
   const core::GridInfo& grid_info() const { return grid_; }
+  /// True for an adaptive grid's layout (sub-grid records are paged).
+  bool has_sub_grids() const { return layout_.sub_grids > 0; }
+  /// A copy of sub-grid record i (< layout's sub_grids): its grid and the
+  /// directory key of its cell 0 as first_entry. One page access.
+  core::SubGrid sub_grid(std::uint32_t i) const {
+    PagedSubGrid r;
+    std::memcpy(&r, pager_->at(layout_.sub_grid_address(i)), sizeof r);
+    return core::SubGrid{r.info, r.first_key, 0};
+  }
   /// visit_cell's and for_each_in_cell's `cell` is the cell's directory
   /// key: its index in the linear order, its bricked key in the other.
 

@@ -310,3 +310,24 @@ TEST_CASE("adaptive grid: every leaf cell is reached exactly once from the top g
   for (int n : seen) bad += n != 1;
   CHECK(bad == 0);
 }
+
+TEST_CASE("adaptive grid: a build that refines no cell keeps only its top grid, the uniform grid's layout") {
+  // Tetra's cells list a few triangles each: nothing reaches sub_grid_min.
+  const Database db = make_database(load_scene({"tetra:4", 0}));
+  const Grid a = build_grid(db, adaptive());
+  const Grid u = build_grid(db);
+  CHECK(a.kind() == GridKind::kAdaptive);
+  CHECK(a.sub_grid_count() == 0);
+  CHECK(a.sub_grids.empty());
+  CHECK(a.cell_entries.empty());
+  CHECK(a.top_sub_grid_bits.empty());
+  CHECK(a.depth() == 0);
+  CHECK(a.leaf_cells() == a.info.cell_count());
+  // Same resolution rule on a cube-like scene: the same cells and lists.
+  for (int k = 0; k < 3; ++k) CHECK(a.info.res[k] == u.info.res[k]);
+  CHECK(a.cell_start == u.cell_start);
+  CHECK(a.cell_primitives == u.cell_primitives);
+  CHECK(a.empty_distance == u.empty_distance);
+  // A deep build of the same scene does refine.
+  CHECK(build_grid(db, adaptive_deep()).sub_grid_count() > 0);
+}

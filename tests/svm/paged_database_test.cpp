@@ -290,3 +290,62 @@ TEST_CASE("paged database: a protected host image cannot be read (the reader die
   pages.unprotect();
   CHECK(pages.data()[10] == std::byte{42});
 }
+
+TEST_CASE("paged database: an adaptive grid pages the top directory, the sub-grids' cells and their records") {
+  // A coarse top grid with sub-grids from 4 primitives: two levels below
+  // the top even on small scenes.
+  core::GridParams gp;
+  gp.kind = core::GridKind::kAdaptive;
+  gp.top_density = 1.0f / 16.0f;
+  gp.sub_grid_min = 4;
+  for (auto [name, size] : {std::pair{"teapot", 2}, std::pair{"tetra", 3}})
+    for (const DirectoryOrder order : {DirectoryOrder::kLinear, DirectoryOrder::kBricked})
+      for (std::uint32_t ps : {64u, 256u, 4096u}) {
+        CAPTURE(name);
+        CAPTURE(ps);
+        CAPTURE(directory_order_name(order));
+        testing::BuiltScene b = testing::build_spd(name, size);
+        b.grid = core::build_grid(b.db, gp);
+        const core::Grid& g = b.grid;
+        REQUIRE(g.sub_grid_count() > 0);
+        REQUIRE(g.depth() >= 2);
+        const PagedImage im = build_paged_image(b.db, g, ps, nullptr, order);
+        const PageLayout& l = im.layout;
+        CHECK(l.cells == g.leaf_cells());
+        CHECK(l.top_cells == g.info.cell_count());
+        CHECK(l.sub_grids == g.sub_grids.size());
+        CHECK(l.pages ==
+              l.directory_pages + l.sub_grid_pages + l.list_pages + l.primitive_pages + l.normals_pages);
+        CHECK(l.sub_grid_pages == (l.sub_grids * 64 + ps - 1) / ps);
+        CHECK(l.directory_pages * (ps / 4) >= l.top_keys + (l.cells - l.top_cells));
+        for (std::uint32_t p = l.sub_grid_first; p < l.sub_grid_first + l.sub_grid_pages; ++p)
+          CHECK(l.segment(p) == Segment::kSubGrids);
+        // Every entry of every grid: a sub-grid's code, or the cell's list.
+        for (std::uint32_t e = 0; e < l.cells; ++e) {
+          const std::uint32_t key = l.entry_key(g.info, e);
+          REQUIRE(l.directory_page(key) < l.directory_first + l.directory_pages);
+          const DirectoryEntry word = word_at(im, l.directory_page(key), l.directory_offset(key));
+          if (g.cell_entries[e] & core::kSubGridEntry) {
+            REQUIRE(word == core::kSubGridCode + (g.cell_entries[e] & ~core::kSubGridEntry));
+            continue;
+          }
+          const std::uint32_t n = g.cell_start[e + 1] - g.cell_start[e];
+          if (n == 0) REQUIRE(word == g.empty_distance[e]);
+          else if (n == 1) REQUIRE(word == (kSingleCell | g.cell_primitives[g.cell_start[e]]));
+          else REQUIRE((word & kEntryTag) == kListCell);
+        }
+        // Each record: the grid's description and its cell 0's key, which
+        // is the key of the sub-grid's first entry.
+        for (std::uint32_t i = 0; i < l.sub_grids; ++i) {
+          PagedSubGrid r;
+          const std::uint64_t a = l.sub_grid_address(i);
+          REQUIRE((a & (ps - 1)) + 64 <= ps);
+          std::memcpy(&r, im.pages.data() + a, sizeof r);
+          CHECK(std::memcmp(&r.info, &g.sub_grids[i].info, sizeof r.info) == 0);
+          CHECK(r.first_key == l.entry_key(g.info, g.sub_grids[i].first_entry));
+        }
+        CHECK(l.object_bytes == b.db.primitives.size() * 64 + b.db.vertex_normals.size() * 36 +
+                                    std::size_t(l.cells) * 4 + std::size_t(l.sub_grids) * 64 +
+                                    std::size_t(l.listed_cells + l.list_ids) * 4);
+      }
+}
