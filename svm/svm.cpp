@@ -330,10 +330,12 @@ nlohmann::json SvmResult::to_json() const {
   j["page_size"] = layout.page_size;
   j["pages_total"] = layout.pages;
   j["pages"] = {{"directory", layout.directory_pages},
+                {"sub-grids", layout.sub_grid_pages},
                 {"lists", layout.list_pages},
                 {"primitives", layout.primitive_pages},
                 {"normals", layout.normals_pages},
                 {"blocks", layout.block_pages}};
+  j["sub_grids"] = layout.sub_grids;  // paged sub-grid records (0: the grid is walked as one level)
   j["directory_order"] = directory_order_name(layout.directory_order);
   if (layout.directory_order == DirectoryOrder::kBricked)
     j["directory_brick"] = {layout.bricks.dims[0], layout.bricks.dims[1], layout.bricks.dims[2]};
