@@ -58,8 +58,9 @@ void add_grid_option(CLI::App& cmd, GridChoice& choice);
 /// The grid kind for runs in `modes` ("sequential", "shared", "replicated",
 /// "svm", "dataflow"; none for commands without modes: validate, bench
 /// accel), all on one grid: the one given, else adaptive, except when a
-/// mode is svm or dataflow, which page and partition only the uniform grid.
-/// Throws UsageError (exit 2) for --grid adaptive with svm or dataflow.
+/// mode is svm, which pages only the uniform grid (dataflow builds each
+/// region's local grid of this kind). Throws UsageError (exit 2) for --grid
+/// adaptive with svm.
 core::GridKind grid_kind_for(const GridChoice& choice, const std::vector<std::string>& modes = {});
 
 /// The grid's description for JSON outputs (stats, scene info, bench):
