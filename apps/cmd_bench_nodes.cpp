@@ -126,7 +126,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
   const core::Database db = core::make_database(scene);
   core::GridParams gp;
   gp.skip_empty = o.run.skip_empty;
-  gp.kind = grid_kind_for(o.run.grid, {o.mode});
+  gp.kind = grid_kind_for(o.run.grid);
   const core::Grid grid = core::build_grid(db, gp);
   fmt::print("{} {} {}x{}, network {}, node memory {}, clock {}, submaps {}, work grants {}, requests {}, {}, {} "
              "hardware threads, best of {}\n",

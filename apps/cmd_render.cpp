@@ -55,7 +55,7 @@ struct RenderOptions {
   std::string mode = "sequential";
   std::string accel = "grid";
   bool skip_empty = core::GridParams{}.skip_empty;
-  GridChoice grid;  ///< --grid (default adaptive; uniform in svm and dataflow)
+  GridChoice grid;  ///< --grid (default adaptive)
   std::uint32_t pack_min = core::kDefaultPackMin;  ///< --pack-cells; 0 = off
   bool pack_given = false;  ///< --pack-cells was on the command line (svm packs only when asked)
   int nodes = 1;
@@ -202,7 +202,7 @@ Accelerator build_accelerator(const RenderOptions& o, const core::Database& db) 
   const auto t0 = std::chrono::steady_clock::now();
   core::GridParams gp;
   gp.skip_empty = o.skip_empty;
-  gp.kind = grid_kind_for(o.grid, {o.mode});
+  gp.kind = grid_kind_for(o.grid);
   if (o.accel == "embree") {
     a.embree = std::make_unique<core::EmbreeScene>(db);
   } else {
@@ -240,6 +240,7 @@ core::RenderResult render_frame(const RenderOptions& o, const core::Database& db
     dp.subsample = o.subsample;
     dp.partition = dataflow::parse_partition(o.partition);
     dp.region_aov = region_aov || node_aov;
+    dp.grid.kind = grid_kind_for(o.grid);  // each region's local grid: --grid's kind, as the host's
     dataflow::DataflowResult r = dataflow::render_dataflow(db, *accel.grid, dp);
     extras.nodes = r.run.to_json(true);
     double busy = 0;
@@ -328,7 +329,6 @@ void run_render(const RenderOptions& o) {
     throw UsageError("output '" + o.output + "' has no extension to choose the image format");
   if (!imageio::can_write_format(o.output))
     throw UsageError("no image writer for the extension of '" + o.output + "' (try .png, .exr, .tif, .ppm)");
-  (void)grid_kind_for(o.grid, {o.mode});  // --grid adaptive with svm or dataflow: exit 2 before any work
   if (o.grid.given && o.accel == "embree") throw UsageError("--grid is for --accel grid; --accel embree builds no grid");
   // Every output is declared, checked and given its temporary before any
   // work; the AOVs' files are those the options can produce.

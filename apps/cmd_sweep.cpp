@@ -309,7 +309,7 @@ SweepFrame make_frame(const std::string& kind, SweepOptions& o, const std::vecto
   f.db = core::make_database(scene);
   core::GridParams gp;
   gp.skip_empty = o.run.skip_empty;
-  gp.kind = grid_kind_for(o.run.grid, modes);
+  gp.kind = grid_kind_for(o.run.grid);
   f.grid = core::build_grid(f.db, gp);
   return f;
 }

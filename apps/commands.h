@@ -55,12 +55,9 @@ struct GridChoice {
 /// Adds --grid adaptive|uniform (core::GridKind) to a subcommand; `choice`
 /// must outlive the parse.
 void add_grid_option(CLI::App& cmd, GridChoice& choice);
-/// The grid kind for runs in `modes` ("sequential", "shared", "replicated",
-/// "svm", "dataflow"; none for commands without modes: validate, bench
-/// accel), all on one grid: the one given, else adaptive, except when a
-/// mode is svm or dataflow, which page and partition only the uniform grid.
-/// Throws UsageError (exit 2) for --grid adaptive with svm or dataflow.
-core::GridKind grid_kind_for(const GridChoice& choice, const std::vector<std::string>& modes = {});
+/// The grid kind --grid gave, else adaptive (every mode reads both: svm
+/// pages either, dataflow builds each region's local grid of this kind).
+core::GridKind grid_kind_for(const GridChoice& choice);
 
 /// The grid's description for JSON outputs (stats, scene info, bench):
 /// kind, top resolution, cells, leaf cells, sub-grids, depth, references,

@@ -243,6 +243,7 @@ NodeRun run_node_mode(const core::Database& db, const core::Grid& grid, const st
       p.machine.mailbox_capacity = spec.queue_capacity;
       p.subsample = spec.subsample;
       p.partition = spec.partition;
+      p.grid.kind = grid.kind();  // the regions' local grids are of the host grid's kind (--grid)
       const dataflow::DataflowResult r = dataflow::render_dataflow(db, grid, p);
       common(r);
       out.ray_messages = r.ray_messages();

@@ -72,7 +72,7 @@ struct NodeRunOptions {
   double timeout_s = 0;                 ///< per run, wall seconds; 0 = none
   int repeat = 1;                       ///< runs per point; the lowest T_p is kept
   bool skip_empty = true;               ///< grid: empty-space jumps (core::GridParams::skip_empty)
-  GridChoice grid;                      ///< --grid (uniform when a mode is svm or dataflow)
+  GridChoice grid;                      ///< --grid (uniform when a mode is svm)
   // svm
   std::uint32_t page_size = 1024;       ///< bytes
   std::string directory_order = "auto"; ///< auto, linear or bricked (svm::parse_directory_order)

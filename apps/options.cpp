@@ -91,19 +91,13 @@ void add_grid_option(CLI::App& cmd, GridChoice& choice) {
            choice.given = v == "uniform" ? core::GridKind::kUniform : core::GridKind::kAdaptive;
          },
          "Grid: adaptive = a coarse top grid whose dense cells hold their own sub-grids (Jevans & Wyvill 1989; "
-         "Kalojanov et al. 2011); uniform = one resolution for the whole scene, the paper's [default: adaptive; "
-         "uniform in svm and dataflow, which read only that]")
+         "Kalojanov et al. 2011); uniform = one resolution for the whole scene, the paper's; in dataflow mode, the "
+         "kind of each region's local grid [default: adaptive]")
       ->check(CLI::IsMember({"adaptive", "uniform"}));
 }
 
-core::GridKind grid_kind_for(const GridChoice& choice, const std::vector<std::string>& modes) {
-  const auto uniform_only = std::find_if(modes.begin(), modes.end(),
-                                         [](const std::string& m) { return m == "dataflow"; });
-  if (!choice.given) return uniform_only != modes.end() ? core::GridKind::kUniform : core::GridKind::kAdaptive;
-  if (uniform_only != modes.end() && *choice.given == core::GridKind::kAdaptive)
-    throw UsageError("--grid adaptive: " + *uniform_only +
-                     " mode reads only the uniform grid (leave --grid out or use --grid uniform)");
-  return *choice.given;
+core::GridKind grid_kind_for(const GridChoice& choice) {
+  return choice.given.value_or(core::GridKind::kAdaptive);
 }
 
 std::vector<GridLevel> grid_levels(const core::Grid& grid) {

@@ -77,7 +77,7 @@ namespace raynode::core {
 
 /// Which grid build_grid makes.
 enum class GridKind : std::uint8_t {
-  kUniform,   ///< one resolution for the whole scene (the paper's; svm and dataflow read only this)
+  kUniform,   ///< one resolution for the whole scene (the paper's)
   kAdaptive,  ///< a coarse top grid whose dense cells hold their own sub-grids (see below)
 };
 /// "uniform" or "adaptive".
@@ -85,9 +85,9 @@ const char* grid_kind_name(GridKind kind);
 
 /// Grid build options.
 struct GridParams {
-  /// Uniform by default here (svm, dataflow and the paper's experiments);
-  /// the CLI's sequential, shared and replicated modes, validate and bench
-  /// accel ask for kAdaptive unless given --grid uniform.
+  /// Uniform by default here (the paper's grid, what library callers and
+  /// tests got before); every command asks for kAdaptive unless given
+  /// --grid uniform (dataflow: each region's local grid).
   GridKind kind = GridKind::kUniform;
   float density = 2.0f;      ///< target cells per primitive (lambda)
   int max_resolution = 512;  ///< cap per axis

@@ -91,6 +91,9 @@ struct NodeState {
   ArenaArray<std::uint32_t> cell_start;
   ArenaArray<std::uint32_t> cell_primitives;
   ArenaArray<std::uint8_t> empty_distance;
+  ArenaArray<core::SubGrid> sub_grids;          ///< adaptive local grid only
+  ArenaArray<std::uint32_t> cell_entries;       ///< adaptive local grid only
+  ArenaArray<std::uint64_t> top_sub_grid_bits;  ///< adaptive local grid only
   ArenaArray<std::uint8_t> shared;
   ArenaArray<core::Light> lights;
   ArenaArray<KdNode> tree;
@@ -159,9 +162,7 @@ class NodeTracer {
         ctx_(ctx),
         s_(s),
         me_(ctx.id()),
-        view_(core::DatabaseArrays{s.primitives.span(), s.vertex_normals.span(), s.materials.span(),
-                                   s.cell_start.span(), s.cell_primitives.span(), s.empty_distance.span(), s.grid},
-              s.shared.data(), &s.stats.shared_tests),
+        view_(arrays_of(s), s.shared.data(), &s.stats.shared_tests),
         map_{s.frame, s.tree.span(), s.rects.span()},
         shading_(core::make_shading_context(std::span<const core::Light>(s.lights.span()), s.background, s.max_depth,
                                             s.min_weight)),
@@ -228,6 +229,16 @@ class NodeTracer {
   }
 
  private:
+  /// The node's region arrays as the view reads them (sub-grid tables empty for a uniform local grid).
+  static core::DatabaseArrays arrays_of(const NodeState& s) {
+    core::DatabaseArrays a{s.primitives.span(), s.vertex_normals.span(), s.materials.span(),
+                           s.cell_start.span(), s.cell_primitives.span(), s.empty_distance.span(), s.grid};
+    a.sub_grids = s.sub_grids.span();
+    a.cell_entries = s.cell_entries.span();
+    a.top_sub_grid_bits = s.top_sub_grid_bits.span();
+    return a;
+  }
+
   void finish_run() {
     s_.stats.tracing = st_;
     s_.stats.tracing.traversal = s_.scratch->traversal.stats;
@@ -513,6 +524,17 @@ class NodeTracer {
   std::uint32_t probe_wave_ = 0;
 };
 
+/// "a 12x9x20 grid with 3456 references", or for an adaptive local grid
+/// "an adaptive grid (12x9x20 top grid, 7 sub-grids, 4321 leaf cells) with 5678 references".
+std::string grid_phrase(const RegionReport& r) {
+  if (r.grid_kind == core::GridKind::kUniform)
+    return fmt::format("a {}x{}x{} grid with {} references", r.grid_res[0], r.grid_res[1], r.grid_res[2],
+                       r.grid_references);
+  return fmt::format("an adaptive grid ({}x{}x{} top grid, {} sub-grids, {} leaf cells) with {} references",
+                     r.grid_res[0], r.grid_res[1], r.grid_res[2], r.grid_sub_grids, r.grid_leaf_cells,
+                     r.grid_references);
+}
+
 /// A spilled ray waiting at the host.
 struct Stored {
   RayMsg ray;
@@ -522,8 +544,6 @@ struct Stored {
 }  // namespace
 
 DataflowResult render_dataflow(const core::Database& db, const core::Grid& grid, const DataflowParams& params) {
-  if (grid.kind() != core::GridKind::kUniform || params.grid.kind != core::GridKind::kUniform)
-    throw std::invalid_argument("dataflow: partitions only uniform grids (core::GridKind::kUniform), got an adaptive one");
   const core::RenderParams& rp = params.render;
   if (rp.spp < 1) throw std::invalid_argument("spp must be >= 1");
   if (rp.max_depth < 1 || rp.max_depth > 255) throw std::invalid_argument("max depth must be 1..255");
@@ -593,17 +613,21 @@ DataflowResult render_dataflow(const core::Database& db, const core::Grid& grid,
     rr.node = r;
     rr.primitives = rd.db.primitives.size();
     for (std::uint8_t s : rd.shared) rr.shared_primitives += s;
+    rr.grid_kind = rd.grid.kind();
     rr.grid_references = rd.grid.references();
     for (int a = 0; a < 3; ++a) rr.grid_res[a] = rd.grid.info.res[a];
+    rr.grid_sub_grids = rd.grid.sub_grid_count();
+    rr.grid_leaf_cells = rd.grid.leaf_cells();
+    rr.grid_bytes = rd.grid.bytes();
     rr.bytes = rd.bytes();
     rr.estimated_cost = cost_in(out.estimate.cost, partition.finite[r]);
     const std::size_t need = rr.bytes + primaries[r].size() * sizeof(PrimarySample) + budget.fixed;
     if (need > m.node_memory)
       throw std::runtime_error(fmt::format(
-          "dataflow mode: region {} needs {} ({} B: {} primitives, a {}x{}x{} grid with {} references, {} own "
-          "primary rays, {} for the mailbox and buffers), --node-memory is {} ({} B)",
-          r, nodes::format_bytes(need), need, rr.primitives, rr.grid_res[0], rr.grid_res[1], rr.grid_res[2],
-          rr.grid_references, primaries[r].size(), nodes::format_bytes(budget.fixed),
+          "dataflow mode: region {} needs {} ({} B: {} primitives, {} ({}), {} own primary rays, {} for the "
+          "mailbox and buffers), --node-memory is {} ({} B)",
+          r, nodes::format_bytes(need), need, rr.primitives, grid_phrase(rr), nodes::format_bytes(rr.grid_bytes),
+          primaries[r].size(), nodes::format_bytes(budget.fixed),
           nodes::format_bytes(m.node_memory),
           m.node_memory));
   }
@@ -648,6 +672,13 @@ DataflowResult render_dataflow(const core::Database& db, const core::Grid& grid,
         nodes::copy_to_arena(a, std::span<const std::uint32_t>(rd.grid.cell_primitives), "the region's cell lists");
     s->empty_distance = nodes::copy_to_arena(a, std::span<const std::uint8_t>(rd.grid.empty_distance),
                                              "the region's empty-space distances");
+    if (rd.grid.kind() == core::GridKind::kAdaptive) {  // a uniform grid has none (and allocates nothing more)
+      s->sub_grids = nodes::copy_to_arena(a, std::span<const core::SubGrid>(rd.grid.sub_grids), "the region's sub-grids");
+      s->cell_entries = nodes::copy_to_arena(a, std::span<const std::uint32_t>(rd.grid.cell_entries),
+                                             "the region's sub-grid cell entries");
+      s->top_sub_grid_bits = nodes::copy_to_arena(a, std::span<const std::uint64_t>(rd.grid.top_sub_grid_bits),
+                                                  "the region's top cells' sub-grid bits");
+    }
     s->shared = nodes::copy_to_arena(a, std::span<const std::uint8_t>(rd.shared), "the shared-primitive flags");
     s->lights = nodes::copy_to_arena(a, std::span<const core::Light>(db.lights), "the lights");
     s->tree = nodes::copy_to_arena(a, std::span<const KdNode>(partition.tree), "the region tree");
@@ -871,19 +902,28 @@ nlohmann::json DataflowResult::to_json() const {
   for (std::size_t i = 0; i < regions.size(); ++i) {
     const RegionReport& r = regions[i];
     const double busy = i < run.nodes.size() ? run.nodes[i].counters.busy_s : 0.0;
-    per.push_back({{"region", i},
-                   {"node", r.node},
-                   {"rect", {r.finite.x0, r.finite.y0, r.finite.x1, r.finite.y1}},  // screen frame, within the extent
-                   {"primitives", r.primitives},
-                   {"shared_primitives", r.shared_primitives},
-                   {"grid_resolution", {r.grid_res[0], r.grid_res[1], r.grid_res[2]}},
-                   {"bytes", r.bytes},
-                   {"estimated_share", est_total > 0 ? r.estimated_cost / est_total : 0.0},
-                   {"measured_share", busy_total > 0 ? busy / busy_total : 0.0},
-                   {"busy_s", busy},
-                   {"load", i < load.size() ? load[i] : 0.0},
-                   {"primaries", i < per_node.size() ? per_node[i].primaries : 0},
-                   {"segments", i < per_node.size() ? per_node[i].segments : 0}});
+    // rect: screen frame, within the extent; grid_resolution: an adaptive grid's top grid.
+    nlohmann::json region = {{"region", i},
+                             {"node", r.node},
+                             {"rect", {r.finite.x0, r.finite.y0, r.finite.x1, r.finite.y1}},
+                             {"primitives", r.primitives},
+                             {"shared_primitives", r.shared_primitives},
+                             {"grid_kind", core::grid_kind_name(r.grid_kind)},
+                             {"grid_resolution", {r.grid_res[0], r.grid_res[1], r.grid_res[2]}},
+                             {"grid_references", r.grid_references},
+                             {"grid_bytes", r.grid_bytes},
+                             {"bytes", r.bytes},
+                             {"estimated_share", est_total > 0 ? r.estimated_cost / est_total : 0.0},
+                             {"measured_share", busy_total > 0 ? busy / busy_total : 0.0},
+                             {"busy_s", busy},
+                             {"load", i < load.size() ? load[i] : 0.0},
+                             {"primaries", i < per_node.size() ? per_node[i].primaries : 0},
+                             {"segments", i < per_node.size() ? per_node[i].segments : 0}};
+    if (r.grid_kind == core::GridKind::kAdaptive) {
+      region["grid_sub_grids"] = r.grid_sub_grids;
+      region["grid_leaf_cells"] = r.grid_leaf_cells;
+    }
+    per.push_back(std::move(region));
   }
   double max_busy = 0;
   for (const nodes::NodeReport& r : run.nodes) max_busy = std::max(max_busy, r.counters.busy_s);

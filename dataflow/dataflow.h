@@ -6,9 +6,10 @@
 // Data flow:
 //   host: estimate_load (estimate.h, a subsample of pixels) -> make_partition
 //   (region.h, recursive median cuts) -> make_region_databases (region_view.h)
-//   -> each node's arena gets its region's primitives, a local grid, the
-//   kd-tree of regions and its own primary rays (those entering the scene
-//   in its region).
+//   -> each node's arena gets its region's primitives, a local grid (uniform,
+//   or adaptive: top grid, sub-grids and their tables), the kd-tree of
+//   regions and its own primary rays (those entering the scene in its
+//   region).
 //   node: traces a ray inside its region (RegionView + core traversal); a hit
 //   there is shaded with core's formula (surface_frame with its spawn origins, refract,
 //   the Whitted terms of core::trace_ray) and its shadow, reflected and
@@ -90,7 +91,10 @@ struct DataflowParams {
   PartitionKind partition = PartitionKind::kBalanced;
   int subsample = 8;              ///< load estimate: one pixel per subsample x subsample block
   int estimate_resolution = 64;   ///< load estimate: 2D cells along the extent's longer side
-  core::GridParams grid;          ///< local grids
+  /// Local grids: kind (uniform, the paper's, or adaptive: each region's
+  /// own top grid and sub-grids), density, empty-space distances. Uniform by
+  /// default here; the CLI passes its --grid (default adaptive).
+  core::GridParams grid;
   bool region_aov = false;        ///< also produce the image of the region of each primary hit
 };
 
@@ -101,8 +105,12 @@ struct RegionReport {
   std::uint32_t node = 0;            ///< owner
   std::size_t primitives = 0;        ///< primitives held (copies of shared ones included)
   std::size_t shared_primitives = 0; ///< of those, also held by another region
-  std::size_t grid_references = 0;
-  int grid_res[3] = {1, 1, 1};
+  core::GridKind grid_kind = core::GridKind::kUniform;  ///< the local grid's kind (DataflowParams::grid)
+  std::size_t grid_references = 0;   ///< the local grid's primitive references (all leaf cells)
+  int grid_res[3] = {1, 1, 1};       ///< cells per axis (adaptive: of the top grid)
+  std::size_t grid_sub_grids = 0;    ///< adaptive: sub-grids below the top grid (0 for uniform)
+  std::size_t grid_leaf_cells = 0;   ///< leaf cells (uniform: all cells)
+  std::size_t grid_bytes = 0;        ///< the local grid's arrays (core::Grid::bytes), part of `bytes`
   std::size_t bytes = 0;             ///< region database bytes in the node's arena
   double estimated_cost = 0;         ///< load estimate inside the region
 };
@@ -160,8 +168,9 @@ struct DataflowResult {
 /// Renders `db` in dataflow mode. Throws std::runtime_error "dataflow mode:
 /// region R needs X ..., --node-memory is Y" before any node starts when a
 /// region does not fit its node; NodeError for failures inside the run;
-/// std::invalid_argument for bad parameters. `grid` is the host's grid (used
-/// by the load estimate only).
+/// std::invalid_argument for bad parameters. `grid` is the host's grid,
+/// uniform or adaptive (used by the load estimate and for the scene box;
+/// the nodes trace their own local grids, params.grid).
 DataflowResult render_dataflow(const core::Database& db, const core::Grid& grid, const DataflowParams& params);
 
 }  // namespace raynode::dataflow

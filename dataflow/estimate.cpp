@@ -26,6 +26,30 @@ void grid_shape(const ScreenRect& e, int resolution, int& nx, int& ny) {
 
 }  // namespace
 
+std::vector<std::uint32_t> cost_bins_of_cells(const core::Grid& grid, const CameraFrame& frame, const CostGrid& cost) {
+  const ScreenRect& e = cost.extent;
+  const double sx = cost.nx / (double(e.x1) - e.x0), sy = cost.ny / (double(e.y1) - e.y0);
+  std::vector<std::uint32_t> bin(grid.leaf_cells());
+  // The cells of one grid (a uniform grid, or one of an adaptive grid's
+  // SubGrids): cell c is leaf first + c (core/grid.h, SubGrid).
+  auto bin_cells = [&](const core::GridInfo& g, std::uint32_t first) {
+    for (int z = 0; z < g.res[2]; ++z)
+      for (int y = 0; y < g.res[1]; ++y)
+        for (int x = 0; x < g.res[0]; ++x) {
+          const core::Vec3 centre = g.cell_bounds(x, y, z).center();
+          const int bx = std::clamp(int(std::floor((frame.x(centre) - e.x0) * sx)), 0, cost.nx - 1);
+          const int by = std::clamp(int(std::floor((frame.y(centre) - e.y0) * sy)), 0, cost.ny - 1);
+          bin[first + g.cell_index(x, y, z)] = std::uint32_t(by * cost.nx + bx);
+        }
+  };
+  if (grid.sub_grids.empty()) {
+    bin_cells(grid.info, 0);
+  } else {
+    for (const core::SubGrid& g : grid.sub_grids) bin_cells(g.info, g.first_entry);
+  }
+  return bin;
+}
+
 CostGrid uniform_cost(const ScreenRect& extent, int resolution) {
   if (resolution < 1) throw std::invalid_argument("cost grid resolution must be >= 1");
   CostGrid c;
@@ -47,19 +71,7 @@ LoadEstimate estimate_load(const core::Database& db, const core::Grid& grid, con
   grid_shape(extent, params.resolution, c.nx, c.ny);
   c.cost.assign(std::size_t(c.nx) * c.ny, 0.0);
 
-  // Cost cell of every 3D cell: its centre projected on the screen frame.
-  const core::GridInfo& g = grid.info;
-  std::vector<std::uint32_t> bin(g.cell_count());
-  const double sx = c.nx / (double(extent.x1) - extent.x0), sy = c.ny / (double(extent.y1) - extent.y0);
-  for (int z = 0; z < g.res[2]; ++z)
-    for (int y = 0; y < g.res[1]; ++y)
-      for (int x = 0; x < g.res[0]; ++x) {
-        const core::Vec3 centre = g.cell_bounds(x, y, z).center();
-        const int bx = std::clamp(int(std::floor((frame.x(centre) - extent.x0) * sx)), 0, c.nx - 1);
-        const int by = std::clamp(int(std::floor((frame.y(centre) - extent.y0) * sy)), 0, c.ny - 1);
-        bin[g.cell_index(x, y, z)] = std::uint32_t(by * c.nx + bx);
-      }
-
+  const std::vector<std::uint32_t> bin = cost_bins_of_cells(grid, frame, c);
   const core::DirectView base(db, grid);
   const CostView view(base, bin.data(), c.cost.data());
   const core::ShadingContext ctx = core::make_shading_context(db, params.max_depth, params.min_weight);

@@ -10,6 +10,9 @@
 // causes, before mailboxing), charged to the 2D cost cell under the 3D
 // cell's centre projected onto the screen frame (region.h). So the cost
 // lands where the work happens — the same place a region's node will do it.
+// With an adaptive host grid the visited cells are leaf cells, each at the
+// centre of its own box (a top cell or a sub-grid's cell); a cell holding a
+// sub-grid is never visited itself, its leaves are.
 // The work is counted by a view wrapper (CostView) around the host's
 // DirectView, through the database-view concept of core/traverse.h: the
 // tracer itself is unchanged.
@@ -35,10 +38,13 @@ namespace raynode::dataflow {
 /// Owner thread only; refers to the base view and the arrays it is given.
 class CostView {
  public:
-  /// `bin_of_cell[c]` = cost-grid index of 3D cell c; `cost` the grid's cells.
+  /// `bin_of_cell[c]` = cost-grid index of leaf cell c (cost_bins_of_cells);
+  /// `cost` the grid's cells.
   CostView(const core::DirectView& base, const std::uint32_t* bin_of_cell, double* cost)
       : base_(base), bin_of_cell_(bin_of_cell), cost_(cost) {}
   const core::GridInfo& grid_info() const { return base_.grid_info(); }
+  /// The base's sub-grid tables: an adaptive grid is walked leaf by leaf.
+  core::SubGridTables sub_grid_tables() const { return base_.sub_grid_tables(); }
   template <class F>
   std::uint32_t for_each_in_cell(std::uint32_t cell, F&& f) const {
     const auto& a = base_.arrays();
@@ -72,9 +78,16 @@ struct LoadEstimate {
   double seconds = 0;          ///< host wall time
 };
 
+/// Per leaf cell of `grid` (Grid::leaf_cells(), uniform or adaptive): the
+/// index (by * nx + bx) of the cost cell of `cost`'s shape (extent, nx, ny;
+/// its costs are not read) under the leaf's box centre projected on the
+/// screen frame `frame`, clamped to the grid. A placeholder leaf (a cell
+/// holding a sub-grid) gets its cell's centre's bin; it is never visited.
+std::vector<std::uint32_t> cost_bins_of_cells(const core::Grid& grid, const CameraFrame& frame, const CostGrid& cost);
+
 /// Traces the subsample of the width x height image of `camera` over `db`
-/// and `grid` and returns the cost grid over `extent` (screen frame
-/// `frame`). Throws std::invalid_argument for bad params.
+/// and `grid` (uniform or adaptive) and returns the cost grid over `extent`
+/// (screen frame `frame`). Throws std::invalid_argument for bad params.
 LoadEstimate estimate_load(const core::Database& db, const core::Grid& grid, const core::Camera& camera,
                            const CameraFrame& frame, const ScreenRect& extent, const EstimateParams& params);
 

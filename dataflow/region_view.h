@@ -21,7 +21,11 @@
 //   rectangle grown by `pad` (1e-4 of the extent plus float rounding).
 // * The local grid covers the world box of the region's rectangle x the
 //   scene's depth range, clipped to its primitives' bounds; core's grid
-//   heuristic picks its resolution for the region's primitive count.
+//   heuristic picks its resolution for the region's primitive count. Its
+//   kind is the run's (GridParams::kind): a uniform grid, or an adaptive
+//   one whose top grid covers the region and whose dense cells hold
+//   sub-grids (core/grid.h); RegionView hands the sub-grid tables to the
+//   traversal as DirectView does, so both walk the same leaf cells.
 // * Local primitives keep their global order (ascending global id) and
 //   their NFF shape index; `pp` vertex normals are renumbered; every node
 //   holds all materials (few, and addressed by index from the primitives).
@@ -40,26 +44,32 @@ namespace raynode::dataflow {
 /// One region's database as the host builds it.
 struct RegionDatabase {
   core::Database db;                   ///< primitives, vertex normals, all materials; bounds = the local grid's box
-  core::Grid grid;                     ///< local grid over `db`
+  core::Grid grid;                     ///< local grid over `db` (uniform or adaptive, GridParams::kind)
   std::vector<std::uint32_t> global;   ///< global primitive id of each local primitive
   std::vector<std::uint8_t> shared;    ///< 1 if the primitive is also in another region
-  /// Bytes the node needs for it: primitives, vertex normals, materials, grid arrays, shared flags.
+  /// Bytes the node needs for it: primitives, vertex normals, materials,
+  /// grid arrays (core::Grid::bytes: cell lists and, adaptive, the
+  /// sub-grids, cell entries and top-cell bits), shared flags.
   std::size_t bytes() const;
 };
 
-/// The databases of every region of `partition` (index = region).
+/// The databases of every region of `partition` (index = region); each
+/// local grid is built with `grid_params` (its kind included).
 std::vector<RegionDatabase> make_region_databases(const core::Database& db, const Partition& partition,
                                                   const core::GridParams& grid_params = {});
 
 /// The database view over a region's arrays (in a node's arena). Counts
-/// the intersection tests of shared primitives into `*shared_tests`.
-/// Owner thread only.
+/// the intersection tests of shared primitives into `*shared_tests`. With
+/// an adaptive local grid (`arrays` with sub-grid tables) the cells it
+/// reads lists of are leaf cells (core/grid.h, Grid). Owner thread only.
 class RegionView {
  public:
   RegionView(const core::DatabaseArrays& arrays, const std::uint8_t* shared, std::uint64_t* shared_tests)
       : a_(arrays), shared_(shared), shared_tests_(shared_tests) {}
 
   const core::GridInfo& grid_info() const { return a_.grid; }
+  /// The adaptive local grid's tables (all empty for a uniform grid).
+  core::SubGridTables sub_grid_tables() const { return {a_.sub_grids, a_.cell_entries, a_.top_sub_grid_bits}; }
   template <class F>
   std::uint32_t for_each_in_cell(std::uint32_t cell, F&& f) const {
     if (const std::uint32_t d = a_.empty_distance[cell]) return d;

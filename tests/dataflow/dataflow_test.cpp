@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "core/database.h"
 #include "core/grid.h"
 #include "core/render.h"
+#include "core/scene.h"
 #include "core/spd.h"
 #include "dataflow/dataflow.h"
 #include "test_scenes.h"
@@ -37,6 +39,28 @@ DataflowParams params_for(const core::RenderParams& rp, std::uint32_t nodes) {
   return p;
 }
 
+core::GridParams grid_params(core::GridKind kind, std::uint32_t sub_grid_min = 128) {
+  core::GridParams g;
+  g.kind = kind;
+  g.sub_grid_min = sub_grid_min;
+  return g;
+}
+
+/// The SPD teapot (size `size`) with one more polygon: a square floor just
+/// below it, `scale` times the model's width (a dense mesh on a huge floor,
+/// where an adaptive grid refines the mesh's cells).
+core::Database teapot_on_floor(int size, float scale) {
+  core::Scene s = core::make_spd_scene(core::SpdParams{"teapot", size, 0});
+  const core::Bounds3 b = core::make_database(s).bounds;
+  const core::Vec3 c = b.center();
+  const float half = 0.5f * scale * std::max(b.upper.x - b.lower.x, b.upper.y - b.lower.y);
+  const float z = b.lower.z - 0.01f * (b.upper.z - b.lower.z);
+  const core::Vec3 quad[4] = {
+      {c.x - half, c.y - half, z}, {c.x + half, c.y - half, z}, {c.x + half, c.y + half, z}, {c.x - half, c.y + half, z}};
+  s.add_polygon(quad, 4);
+  return core::make_database(s);
+}
+
 void check_counters_match(const core::RenderStats& a, const core::RenderStats& b) {
   CHECK(a.rays.primary == b.rays.primary);
   CHECK(a.rays.shadow == b.rays.shadow);
@@ -49,33 +73,90 @@ void check_counters_match(const core::RenderStats& a, const core::RenderStats& b
 
 }  // namespace
 
-TEST_CASE("dataflow: images equal sequential within 1e-5 for N in {1, 2, 3, 4, 8, 12, 32, 64}") {
+TEST_CASE("dataflow: images equal sequential within 1e-5 for N in {1, 2, 3, 4, 8, 12, 32, 64}, both grid kinds") {
   struct Case {
     const char* name;
     int size;
     int tessellate;
   };
   for (const Case& sc : {Case{"rings", 1, 0}, Case{"balls", 1, 0}, Case{"teapot", 2, 0}, Case{"mount", 2, 0},
-                         Case{"tetra", 3, 0}, Case{"rings", 1, 1}}) {
-    const testing::BuiltScene b = testing::build_spd(sc.name, sc.size, sc.tessellate);
-    core::RenderParams rp;
-    rp.width = 48;
-    rp.height = 32;
-    const core::RenderResult seq = core::render(b.db, b.grid, rp);
-    for (std::uint32_t n : {1u, 2u, 3u, 4u, 8u, 12u, 32u, 64u}) {
-      CAPTURE(sc.name);
-      CAPTURE(n);
-      const DataflowResult r = render_dataflow(b.db, b.grid, params_for(rp, n));
-      CHECK(max_diff(r.render.color, seq.color) <= 1e-5f);
-      check_counters_match(r.render.stats, seq.stats);
-      CHECK(r.regions.size() == n);
-      CHECK(r.host.contributions == [&] {
-        std::uint64_t c = 0;
-        for (const NodeFlowStats& s : r.per_node) c += s.contributions;
-        return c;
-      }());
-      if (n > 1 && std::string(sc.name) != "tetra") CHECK(r.ray_messages() > 0);
+                         Case{"tetra", 3, 0}, Case{"rings", 1, 1}})
+    for (const core::GridKind kind : {core::GridKind::kUniform, core::GridKind::kAdaptive}) {
+      testing::BuiltScene b = testing::build_spd(sc.name, sc.size, sc.tessellate);
+      b.grid = core::build_grid(b.db, grid_params(kind));  // the host's grid, as the CLI builds it
+      core::RenderParams rp;
+      rp.width = 48;
+      rp.height = 32;
+      const core::RenderResult seq = core::render(b.db, b.grid, rp);
+      for (std::uint32_t n : {1u, 2u, 3u, 4u, 8u, 12u, 32u, 64u}) {
+        CAPTURE(sc.name);
+        const char* grid = core::grid_kind_name(kind);
+        CAPTURE(grid);
+        CAPTURE(n);
+        DataflowParams p = params_for(rp, n);
+        p.grid.kind = kind;
+        const DataflowResult r = render_dataflow(b.db, b.grid, p);
+        CHECK(max_diff(r.render.color, seq.color) <= 1e-5f);
+        check_counters_match(r.render.stats, seq.stats);
+        CHECK(r.regions.size() == n);
+        for (const RegionReport& g : r.regions) CHECK(g.grid_kind == kind);
+        CHECK(r.host.contributions == [&] {
+          std::uint64_t c = 0;
+          for (const NodeFlowStats& s : r.per_node) c += s.contributions;
+          return c;
+        }());
+        if (n > 1 && std::string(sc.name) != "tetra") CHECK(r.ray_messages() > 0);
+      }
     }
+}
+
+TEST_CASE("dataflow: a mesh on a huge floor renders as sequential with adaptive local grids that hold sub-grids") {
+  // Sub-grids from 8 primitives on, so that a small scene's regions get them.
+  const core::GridParams adaptive = grid_params(core::GridKind::kAdaptive, 8);
+  const core::Database db = teapot_on_floor(3, 200.0f);
+  const core::Grid host = core::build_grid(db, adaptive);
+  REQUIRE(host.sub_grid_count() > 0);
+  core::RenderParams rp;
+  rp.width = 48;
+  rp.height = 40;
+  rp.depth_aov = rp.primitive_aov = true;
+  const core::RenderResult seq = core::render(db, host, rp);
+  std::size_t hit_pixels = 0;
+  for (float v : seq.primitive.pixels) hit_pixels += v >= 0;
+  REQUIRE(hit_pixels > 0);
+  for (std::uint32_t n : {1u, 4u, 9u}) {
+    CAPTURE(n);
+    DataflowParams p = params_for(rp, n);
+    p.grid = adaptive;
+    const DataflowResult r = render_dataflow(db, host, p);
+    CHECK(max_diff(r.render.color, seq.color) <= 1e-5f);
+    // The same primitive and distance at every pixel: the walk enters the regions' sub-grids.
+    CHECK(max_diff(r.render.primitive, seq.primitive) == 0.0f);
+    CHECK(max_diff(r.render.depth, seq.depth) == 0.0f);
+    check_counters_match(r.render.stats, seq.stats);
+    std::size_t refined = 0;
+    for (const RegionReport& g : r.regions) {
+      CHECK(g.grid_kind == core::GridKind::kAdaptive);
+      CHECK(g.grid_leaf_cells >= std::size_t(g.grid_res[0]) * g.grid_res[1] * g.grid_res[2]);
+      CHECK(g.bytes > g.grid_bytes);
+      refined += g.grid_sub_grids > 0;
+    }
+    CHECK(refined > 0);
+    // The stats name each region's grid kind and, adaptive, its sub-grids and leaf cells.
+    const nlohmann::json j = r.to_json();
+    for (const nlohmann::json& g : j["per_region"]) {
+      CHECK(g["grid_kind"] == "adaptive");
+      CHECK(g.contains("grid_sub_grids"));
+      CHECK(g["grid_leaf_cells"].get<std::size_t>() > 0);
+    }
+    // The paper's uniform local grids give the same image over the same host grid.
+    p.grid = grid_params(core::GridKind::kUniform);
+    const DataflowResult u = render_dataflow(db, host, p);
+    CHECK(max_diff(u.render.color, seq.color) <= 1e-5f);
+    CHECK(max_diff(u.render.primitive, seq.primitive) == 0.0f);
+    for (const RegionReport& g : u.regions) CHECK(g.grid_sub_grids == 0);
+    CHECK_FALSE(u.to_json()["per_region"][0].contains("grid_sub_grids"));
+    CHECK(u.to_json()["per_region"][0]["grid_kind"] == "uniform");
   }
 }
 
@@ -193,6 +274,20 @@ TEST_CASE("dataflow: a region that does not fit its node fails before the run, n
     CAPTURE(what);
     CHECK(what.find("dataflow mode: region") != std::string::npos);
     CHECK(what.find("primitives") != std::string::npos);
+    CHECK(what.find("--node-memory is 64 KiB") != std::string::npos);
+  }
+  // An adaptive local grid is named as one, with its sub-grids and leaf cells.
+  p.grid = grid_params(core::GridKind::kAdaptive, 8);
+  try {
+    render_dataflow(b.db, b.grid, p);
+    FAIL("expected an error");
+  } catch (const std::runtime_error& e) {
+    const std::string what = e.what();
+    CAPTURE(what);
+    CHECK(what.find("dataflow mode: region") != std::string::npos);
+    CHECK(what.find("an adaptive grid (") != std::string::npos);
+    CHECK(what.find("sub-grids") != std::string::npos);
+    CHECK(what.find("leaf cells) with") != std::string::npos);
     CHECK(what.find("--node-memory is 64 KiB") != std::string::npos);
   }
 }

@@ -1,12 +1,15 @@
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include "core/camera.h"
 #include "core/database.h"
 #include "core/grid.h"
 #include "core/render.h"
+#include "core/scene.h"
 #include "core/spd.h"
 #include "dataflow/estimate.h"
 #include "dataflow/region.h"
@@ -155,4 +158,112 @@ TEST_CASE("region: region databases hold every primitive at least once, shared o
   CHECK(held > db.primitives.size());  // some primitives straddle a cut
   for (const RegionDatabase& rd : rds)
     for (std::size_t i = 0; i < rd.global.size(); ++i) CHECK((rd.shared[i] == 1) == (seen[rd.global[i]] > 1));
+}
+
+TEST_CASE("region: every leaf of an adaptive grid is binned inside its own box's screen footprint") {
+  // A coarse top grid and sub-grids from 4 primitives on: tetra:3 gets sub-grids two levels deep.
+  const core::Database db = core::make_database(core::make_spd_scene(core::SpdParams{"tetra", 3, 0}));
+  core::GridParams gp;
+  gp.kind = core::GridKind::kAdaptive;
+  gp.top_density = 1.0f / 16.0f;
+  gp.sub_grid_min = 4;
+  const core::Grid grid = core::build_grid(db, gp);
+  REQUIRE(grid.sub_grid_count() > 0);
+  REQUIRE(grid.depth() >= 2);
+  const CameraFrame f = CameraFrame::of(core::render_view(db));
+  CostGrid c = uniform_cost(screen_extent(f, db.bounds), 64);
+  const std::vector<std::uint32_t> bin = cost_bins_of_cells(grid, f, c);
+  REQUIRE(bin.size() == grid.leaf_cells());
+  // Bin range of a world box: its corners' projections, clamped as the bins are.
+  auto bin_range = [&](const core::Bounds3& b, int& x0, int& y0, int& x1, int& y1) {
+    x0 = y0 = 1 << 30, x1 = y1 = -1;
+    const double sx = c.nx / (double(c.extent.x1) - c.extent.x0), sy = c.ny / (double(c.extent.y1) - c.extent.y0);
+    for (int i = 0; i < 8; ++i) {
+      const core::Vec3 p{(i & 1) ? b.upper.x : b.lower.x, (i & 2) ? b.upper.y : b.lower.y,
+                         (i & 4) ? b.upper.z : b.lower.z};
+      const int bx = std::clamp(int(std::floor((f.x(p) - c.extent.x0) * sx)), 0, c.nx - 1);
+      const int by = std::clamp(int(std::floor((f.y(p) - c.extent.y0) * sy)), 0, c.ny - 1);
+      x0 = std::min(x0, bx), x1 = std::max(x1, bx), y0 = std::min(y0, by), y1 = std::max(y1, by);
+    }
+  };
+  std::size_t checked = 0, deep = 0;
+  std::vector<int> seen(grid.leaf_cells(), 0);
+  for (const core::SubGrid& g : grid.sub_grids)
+    for (int z = 0; z < g.info.res[2]; ++z)
+      for (int y = 0; y < g.info.res[1]; ++y)
+        for (int x = 0; x < g.info.res[0]; ++x) {
+          const std::uint32_t leaf = g.first_entry + g.info.cell_index(x, y, z);
+          REQUIRE(leaf < bin.size());
+          ++seen[leaf];
+          int x0, y0, x1, y1;
+          bin_range(g.info.cell_bounds(x, y, z), x0, y0, x1, y1);
+          const int bx = int(bin[leaf] % std::uint32_t(c.nx)), by = int(bin[leaf] / std::uint32_t(c.nx));
+          CAPTURE(leaf);
+          CAPTURE(g.level);
+          CHECK(bin[leaf] < std::uint32_t(c.nx * c.ny));
+          CHECK(bx >= x0);
+          CHECK(bx <= x1);
+          CHECK(by >= y0);
+          CHECK(by <= y1);
+          ++checked;
+          deep += g.level >= 2;
+        }
+  CHECK(checked == grid.leaf_cells());
+  CHECK(deep > 0);
+  for (int s : seen) CHECK(s == 1);
+}
+
+TEST_CASE("region: the estimate over an adaptive grid traces the uniform grid's rays and charges where the mesh is") {
+  // A small mesh on a floor 100x its size; sub-grids from 8 primitives on.
+  core::Scene s = core::make_spd_scene(core::SpdParams{"teapot", 3, 0});
+  const core::Bounds3 mb = core::make_database(s).bounds;
+  const core::Vec3 mc = mb.center();
+  const float half = 50.0f * std::max(mb.upper.x - mb.lower.x, mb.upper.y - mb.lower.y);
+  const float z = mb.lower.z - 0.01f * (mb.upper.z - mb.lower.z);
+  const core::Vec3 quad[4] = {{mc.x - half, mc.y - half, z}, {mc.x + half, mc.y - half, z},
+                              {mc.x + half, mc.y + half, z}, {mc.x - half, mc.y + half, z}};
+  s.add_polygon(quad, 4);
+  const core::Database db = core::make_database(s);
+  core::GridParams gp;
+  gp.kind = core::GridKind::kAdaptive;
+  gp.sub_grid_min = 8;
+  const core::Grid adaptive = core::build_grid(db, gp);
+  REQUIRE(adaptive.sub_grid_count() > 0);
+  const core::Grid uniform = core::build_grid(db);
+  const core::View view = core::render_view(db);
+  const core::Camera cam(view, 64, 64);
+  const CameraFrame f = CameraFrame::of(view);
+  const ScreenRect e = screen_extent(f, db.bounds);
+  EstimateParams ep;
+  ep.subsample = 2;
+  const LoadEstimate ea = estimate_load(db, adaptive, cam, f, e, ep);
+  const LoadEstimate eu = estimate_load(db, uniform, cam, f, e, ep);
+  // The same hits, so the same secondary rays (a walk that skipped the
+  // sub-grids would miss the mesh and spawn fewer).
+  CHECK(ea.pixels == eu.pixels);
+  CHECK(ea.rays == eu.rays);
+  CHECK(ea.rays > ea.pixels);
+  REQUIRE(ea.cost.cost.size() == eu.cost.cost.size());
+  for (double v : ea.cost.cost) CHECK(v >= 0.0);
+  // The mesh's screen footprint (the bins under its box) holds the busiest bin.
+  const double sx = ea.cost.nx / (double(e.x1) - e.x0), sy = ea.cost.ny / (double(e.y1) - e.y0);
+  int x0 = ea.cost.nx, y0 = ea.cost.ny, x1 = -1, y1 = -1;
+  for (int i = 0; i < 8; ++i) {
+    const core::Vec3 p{(i & 1) ? mb.upper.x : mb.lower.x, (i & 2) ? mb.upper.y : mb.lower.y,
+                       (i & 4) ? mb.upper.z : mb.lower.z};
+    const int bx = std::clamp(int(std::floor((f.x(p) - e.x0) * sx)), 0, ea.cost.nx - 1);
+    const int by = std::clamp(int(std::floor((f.y(p) - e.y0) * sy)), 0, ea.cost.ny - 1);
+    x0 = std::min(x0, bx), x1 = std::max(x1, bx), y0 = std::min(y0, by), y1 = std::max(y1, by);
+  }
+  for (const LoadEstimate* est : {&ea, &eu}) {
+    const auto top = std::max_element(est->cost.cost.begin(), est->cost.cost.end()) - est->cost.cost.begin();
+    const int bx = int(top % est->cost.nx), by = int(top / est->cost.nx);
+    CHECK(bx >= x0);
+    CHECK(bx <= x1);
+    CHECK(by >= y0);
+    CHECK(by <= y1);
+  }
+  // Balanced cuts on the adaptive estimate: the requested regions, each its share.
+  const Partition p = make_partition(f, ea.cost, 8);
+  CHECK(p.region_count() == 8u);
 }
