@@ -457,6 +457,7 @@ void run_render(const RenderOptions& o) {
     if (accel.grid) {
       j["grid_resolution"] = {accel.grid->info.res[0], accel.grid->info.res[1], accel.grid->info.res[2]};
       j["grid"] = grid_json(*accel.grid);
+      j["grid"]["build_s"] = accel.build_s;
       j["skip_empty"] = o.skip_empty;
       // svm packs its paged database, not the host's grid.
       const bool svm = !extras.svm.is_null();
