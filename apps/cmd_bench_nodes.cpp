@@ -187,6 +187,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
                           {"clock", o.run.clock},         {"width", o.run.width}, {"height", o.run.height},
                           {"submaps", o.run.submaps},     {"work_grants", o.run.work_grants},
                           {"work_requests", o.run.work_requests}, {"pack_cells", o.pack_min},
+                          {"grid", grid_json(grid)},
                           {"sequential_s", sequential_s}, {"sequential_cpu_s", sequential_cpu_s},
                           {"one_node_over_sequential",
                            one_node_ratio ? nlohmann::json(*one_node_ratio) : nlohmann::json()},

@@ -410,9 +410,9 @@ void require_some_fit(const Table& t, const SweepFrame& f, const std::string& fi
 }
 
 std::string title_of(const SweepFrame& f, const SweepOptions& o, const std::string& what) {
-  return fmt::format("raynode sweep {}: {}, {}x{}, {}network {}, node memory {}, clock {}", f.kind, f.scene,
+  return fmt::format("raynode sweep {}: {}, {}x{}, {}network {}, node memory {}, clock {}, {} grid", f.kind, f.scene,
                      o.run.width, o.run.height, what, f.spec.machine.network.name, o.run.node_memory,
-                     nodes::compute_clock_name(f.spec.machine.clock));
+                     nodes::compute_clock_name(f.spec.machine.clock), core::grid_kind_name(f.grid.kind()));
 }
 
 // --- sweep nodes ---------------------------------------------------------------
