@@ -575,14 +575,28 @@ DataflowResult render_dataflow(const core::Database& db, const core::Grid& grid,
   ep.spp = 1;
   ep.max_depth = rp.max_depth;
   ep.min_weight = rp.min_weight;
+  ep.regions = n;
   out.estimate = estimate_load(db, grid, camera, frame, extent, ep);
+  out.extent = extent;
 
   // 2. Partition and the regions' databases.
   const auto t0 = std::chrono::steady_clock::now();
   const CostGrid cut_cost = params.partition == PartitionKind::kEqual
                                 ? uniform_cost(extent, params.estimate_resolution)
                                 : out.estimate.cost;
-  const Partition partition = make_partition(frame, cut_cost, n);
+  Partition partition = make_partition(frame, cut_cost, n);
+  // A refined estimate's cuts cover only where the work is: the outer
+  // regions' finite rectangles reach on to the scene's extent, which their
+  // local grids must cover.
+  for (std::uint32_t r = 0; r < partition.region_count(); ++r) {
+    const ScreenRect& own = partition.rects[r];
+    ScreenRect& f = partition.finite[r];
+    if (std::isinf(own.x0)) f.x0 = std::min(f.x0, extent.x0);
+    if (std::isinf(own.y0)) f.y0 = std::min(f.y0, extent.y0);
+    if (std::isinf(own.x1)) f.x1 = std::max(f.x1, extent.x1);
+    if (std::isinf(own.y1)) f.y1 = std::max(f.y1, extent.y1);
+  }
+  partition.extent = extent;
   std::vector<RegionDatabase> regions = make_region_databases(db, partition, params.grid);
   const RegionMap map = partition.map();
 
@@ -858,6 +872,9 @@ nlohmann::json DataflowResult::to_json() const {
                    {"rays", estimate.rays},
                    {"host_s", estimate.seconds},
                    {"cost_grid", {estimate.cost.nx, estimate.cost.ny}},
+                   {"cost_extent", {estimate.cost.extent.x0, estimate.cost.extent.y0, estimate.cost.extent.x1,
+                                    estimate.cost.extent.y1}},
+                   {"refined", estimate.refined},
                    {"total_cost", estimate.cost.total()}};
   j["setup_s"] = setup_s;
   nlohmann::json by_kind = nlohmann::json::object();

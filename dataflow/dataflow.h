@@ -149,6 +149,7 @@ struct DataflowResult {
   std::vector<NodeFlowStats> per_node;
   HostFlowStats host;
   LoadEstimate estimate;              ///< the subsample's cost grid and its host time
+  ScreenRect extent;                  ///< the scene's screen extent (the estimate's cost grid may cover less)
   PartitionKind partition = PartitionKind::kBalanced;
   double setup_s = 0;                 ///< host wall seconds to partition and build the region databases
 

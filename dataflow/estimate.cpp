@@ -59,6 +59,29 @@ CostGrid uniform_cost(const ScreenRect& extent, int resolution) {
   return c;
 }
 
+namespace {
+
+/// One pass of estimate_load over the cost grid `c` (its extent and shape
+/// set, costs zeroed).
+void charge(const core::Database& db, const core::Grid& grid, const core::Camera& camera, const CameraFrame& frame,
+            const EstimateParams& params, CostGrid& c, LoadEstimate& out) {
+  const std::vector<std::uint32_t> bin = cost_bins_of_cells(grid, frame, c);
+  const core::DirectView base(db, grid);
+  const CostView view(base, bin.data(), c.cost.data());
+  const core::ShadingContext ctx = core::make_shading_context(db, params.max_depth, params.min_weight);
+  core::ShadingScratch scratch;
+  const int s = params.subsample, half = s / 2;
+  out.pixels = 0;
+  for (int y = half < camera.height() ? half : 0; y < camera.height(); y += s)
+    for (int x = half < camera.width() ? half : 0; x < camera.width(); x += s) {
+      core::render_pixel(view, ctx, camera, x, y, params.spp, false, scratch);
+      ++out.pixels;
+    }
+  out.rays = scratch.stats.rays.total();
+}
+
+}  // namespace
+
 LoadEstimate estimate_load(const core::Database& db, const core::Grid& grid, const core::Camera& camera,
                            const CameraFrame& frame, const ScreenRect& extent, const EstimateParams& params) {
   if (params.subsample < 1)
@@ -70,19 +93,45 @@ LoadEstimate estimate_load(const core::Database& db, const core::Grid& grid, con
   c.extent = extent;
   grid_shape(extent, params.resolution, c.nx, c.ny);
   c.cost.assign(std::size_t(c.nx) * c.ny, 0.0);
+  charge(db, grid, camera, frame, params, c, out);
 
-  const std::vector<std::uint32_t> bin = cost_bins_of_cells(grid, frame, c);
-  const core::DirectView base(db, grid);
-  const CostView view(base, bin.data(), c.cost.data());
-  const core::ShadingContext ctx = core::make_shading_context(db, params.max_depth, params.min_weight);
-  core::ShadingScratch scratch;
-  const int s = params.subsample, half = s / 2;
-  for (int y = half < camera.height() ? half : 0; y < camera.height(); y += s)
-    for (int x = half < camera.width() ? half : 0; x < camera.width(); x += s) {
-      core::render_pixel(view, ctx, camera, x, y, params.spp, false, scratch);
-      ++out.pixels;
+  // The cells that were charged, padded by one cell: where that is less
+  // than half the extent on an axis (a small model on a huge floor puts all
+  // the work in a cell or two), charge again over it alone.
+  int bx0 = c.nx, by0 = c.ny, bx1 = -1, by1 = -1;
+  for (int y = 0; y < c.ny; ++y)
+    for (int x = 0; x < c.nx; ++x)
+      if (c.cost[std::size_t(y) * c.nx + x] > 0) {
+        bx0 = std::min(bx0, x), bx1 = std::max(bx1, x);
+        by0 = std::min(by0, y), by1 = std::max(by1, y);
+      }
+  const bool narrow_x = 2 * (bx1 - bx0 + 3) <= c.nx, narrow_y = 2 * (by1 - by0 + 3) <= c.ny;
+  if (bx1 >= 0 && (narrow_x || narrow_y)) {
+    const double cw = (double(extent.x1) - extent.x0) / c.nx, ch = (double(extent.y1) - extent.y0) / c.ny;
+    ScreenRect work{float(extent.x0 + std::max(0, bx0 - 1) * cw), float(extent.y0 + std::max(0, by0 - 1) * ch),
+                    float(extent.x0 + std::min(c.nx, bx1 + 2) * cw), float(extent.y0 + std::min(c.ny, by1 + 2) * ch)};
+    work.x0 = std::max(work.x0, extent.x0), work.x1 = std::min(work.x1, extent.x1);
+    work.y0 = std::max(work.y0, extent.y0), work.y1 = std::min(work.y1, extent.y1);
+    if (work.x1 > work.x0 && work.y1 > work.y0) {
+      c.extent = work;
+      grid_shape(work, params.resolution, c.nx, c.ny);
+      c.cost.assign(std::size_t(c.nx) * c.ny, 0.0);
+      charge(db, grid, camera, frame, params, c, out);
+      out.refined = true;
     }
-  out.rays = scratch.stats.rays.total();
+  }
+  // A cost cell heavier than half a region's share cannot be cut finer
+  // (make_partition spreads a cell's cost evenly over it): charge again on
+  // a grid four times finer, up to kMaxEstimateResolution.
+  for (int res = params.resolution; params.regions > 1 && res < kMaxEstimateResolution;) {
+    const double heaviest = *std::max_element(c.cost.begin(), c.cost.end());
+    if (heaviest <= c.total() / (2.0 * params.regions)) break;
+    res = std::min(res * 4, kMaxEstimateResolution);
+    grid_shape(c.extent, res, c.nx, c.ny);
+    c.cost.assign(std::size_t(c.nx) * c.ny, 0.0);
+    charge(db, grid, camera, frame, params, c, out);
+    out.refined = true;
+  }
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }

@@ -68,11 +68,22 @@ struct EstimateParams {
   int spp = 1;           ///< samples per pixel, as the frame will use
   int max_depth = 5;
   float min_weight = 0;
+  /// Regions the cost grid will be cut into: a cell holding more than half
+  /// a region's share makes estimate_load charge again on a finer grid.
+  std::uint32_t regions = 1;
 };
+/// The finest cost grid estimate_load refines to (cells along the longer side).
+inline constexpr int kMaxEstimateResolution = 1024;
 
 /// The estimate's result.
 struct LoadEstimate {
-  CostGrid cost;               ///< charged work per 2D cell (cells visited + listed primitives)
+  /// Charged work per 2D cell (cells visited + listed primitives), over
+  /// the extent given or, when `refined`, over the part of it that was
+  /// charged (cost.extent).
+  CostGrid cost;
+  /// True when the subsample was charged again: over the part of the
+  /// extent that holds the work, or on a finer grid (estimate_load).
+  bool refined = false;
   std::uint64_t pixels = 0;    ///< pixels traced
   std::uint64_t rays = 0;      ///< rays traced (all kinds)
   double seconds = 0;          ///< host wall time
@@ -87,7 +98,14 @@ std::vector<std::uint32_t> cost_bins_of_cells(const core::Grid& grid, const Came
 
 /// Traces the subsample of the width x height image of `camera` over `db`
 /// and `grid` (uniform or adaptive) and returns the cost grid over `extent`
-/// (screen frame `frame`). Throws std::invalid_argument for bad params.
+/// (screen frame `frame`). When the charged cells, padded by one, span less
+/// than half the extent on an axis (a small model on a huge floor), the
+/// subsample is traced again over that rectangle alone, so that the cuts
+/// can fall inside the work (LoadEstimate::refined; pixels and rays are one
+/// pass's). Then, while a cost cell holds more than half of a region's
+/// share (params.regions), the grid is made four times finer, up to
+/// kMaxEstimateResolution cells, and charged again. Throws
+/// std::invalid_argument for bad params.
 LoadEstimate estimate_load(const core::Database& db, const core::Grid& grid, const core::Camera& camera,
                            const CameraFrame& frame, const ScreenRect& extent, const EstimateParams& params);
 

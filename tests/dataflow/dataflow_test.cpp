@@ -302,3 +302,36 @@ TEST_CASE("dataflow: bad parameters are rejected") {
   CHECK_THROWS_AS(parse_partition("median"), std::invalid_argument);
   CHECK(parse_partition("equal") == PartitionKind::kEqual);
 }
+
+TEST_CASE("dataflow: a small model on a huge floor: the estimate is charged again where the work is, and balanced regions share it") {
+  const core::Database db = teapot_on_floor(3, 1000.0f);
+  for (const core::GridKind kind : {core::GridKind::kUniform, core::GridKind::kAdaptive}) {
+    CAPTURE(core::grid_kind_name(kind));
+    const core::Grid host = core::build_grid(db, grid_params(kind));
+    core::RenderParams rp;
+    rp.width = 64;
+    rp.height = 48;
+    const core::RenderResult seq = core::render(db, host, rp);
+    DataflowParams p = params_for(rp, 8);
+    p.subsample = 4;
+    p.grid = grid_params(kind);
+    const DataflowResult r = render_dataflow(db, host, p);
+    CHECK(max_diff(r.render.color, seq.color) <= 1e-5f);
+    check_counters_match(r.render.stats, seq.stats);
+    // The floor spans 1000 model widths on screen; the charged part a few.
+    REQUIRE(r.estimate.refined);
+    const ScreenRect& all = r.extent;
+    const ScreenRect& work = r.estimate.cost.extent;
+    CHECK((work.x1 - work.x0) * 4 < (all.x1 - all.x0));
+    double lo = 1e300, hi = 0, total = 0;
+    for (const RegionReport& g : r.regions) {
+      lo = std::min(lo, g.estimated_cost), hi = std::max(hi, g.estimated_cost);
+      total += g.estimated_cost;
+      // Every finite rectangle's outer sides reach the whole scene's extent.
+      if (std::isinf(g.rect.x0)) CHECK(g.finite.x0 <= all.x0);
+      if (std::isinf(g.rect.x1)) CHECK(g.finite.x1 >= all.x1);
+    }
+    CHECK(total == doctest::Approx(r.estimate.cost.total()).epsilon(1e-6));
+    CHECK(lo / hi > 0.8);  // one cost cell held the whole model before
+  }
+}
