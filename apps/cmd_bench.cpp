@@ -1,4 +1,4 @@
-// `raynode bench accel SCENE...`: rays per second of the uniform grid and of
+// `raynode bench accel SCENE...`: rays per second of the grid (--grid) and of
 // Embree, one thread, the same rays: primary rays through each pixel centre
 // (closest hit), shadow rays from their hits to every light (any hit), and
 // mirror rays from their hits (closest hit). Best of --repeat runs.

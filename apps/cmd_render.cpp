@@ -1,5 +1,5 @@
 // `raynode render SCENE`: the Whitted renderer (core/render.h) in sequential
-// or shared-memory mode over the uniform grid or Embree (--accel), writing
+// or shared-memory mode over the grid (--grid) or Embree (--accel), writing
 // the image through OpenImageIO (format by extension), optional AOVs
 // (NAME.depth.exr, NAME.normal.exr, NAME.primitive.exr), JSON statistics
 // and a progress line on stderr.
