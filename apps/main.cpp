@@ -3,14 +3,66 @@
 // (see commands.h).
 #include <fmt/core.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <exception>
 #include <new>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "apps/commands.h"
 #include "apps/output_files.h"
 #include "apps/watchdog.h"
 #include "core/nff.h"
+
+namespace {
+
+/// Edit distance (insertions, deletions, substitutions) between a and b.
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] != b[j - 1])});
+      diagonal = up;
+    }
+  }
+  return row[b.size()];
+}
+
+/// For a command line whose command word is not a command (`raynode rendr`,
+/// `raynode bench acel`; CLI11 says only "A subcommand is required"): the
+/// error line naming it, the commands there are, and the nearest one.
+std::optional<std::string> unknown_command(CLI::App& app, int argc, char** argv) {
+  CLI::App* at = &app;
+  std::string path;  // the command words so far, each followed by a space
+  for (int i = 1; at->get_require_subcommand_min() > 0; ++i) {
+    std::string names, nearest;
+    std::size_t best = 3;  // suggest only within two edits
+    const std::string word = i < argc ? argv[i] : "";
+    CLI::App* found = nullptr;
+    for (CLI::App* c : at->get_subcommands([](CLI::App*) { return true; })) {
+      names += (names.empty() ? "" : ", ") + c->get_name();
+      if (i < argc && c->check_name(word)) found = c;
+      if (const std::size_t d = edit_distance(word, c->get_name()); i < argc && d < best) best = d, nearest = c->get_name();
+    }
+    const std::string of = path.empty() ? "" : " of '" + path.substr(0, path.size() - 1) + "'";
+    if (i >= argc) return fmt::format("a command is missing; the commands{} are {}", of, names);
+    if (word.empty() || word[0] == '-') return std::nullopt;  // an option (--help, --version): CLI11 handles it
+    if (!found)
+      return fmt::format("unknown command '{}{}'; the commands{} are {}{}", path, word, of, names,
+                         nearest.empty() ? "" : fmt::format(" (did you mean '{}{}'?)", path, nearest));
+    path += word + " ";
+    at = found;
+  }
+  return std::nullopt;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   using namespace raynode;
@@ -28,6 +80,10 @@ int main(int argc, char** argv) {
   apps::register_sweep_commands(app);
   apps::register_bench_quality_command(app);
   apps::register_bench_cost_model_command(app);
+  if (const std::optional<std::string> unknown = unknown_command(app, argc, argv)) {
+    fmt::print(stderr, "raynode: error: {}\nRun 'raynode --help' (or 'raynode COMMAND --help') for usage.\n", *unknown);
+    return 2;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
