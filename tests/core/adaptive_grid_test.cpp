@@ -91,10 +91,7 @@ TEST_CASE("adaptive grid: SPD scenes agree with Embree (zero mismatches) and hol
     CHECK(grid.kind() == GridKind::kAdaptive);
     if (deep) CHECK(grid.sub_grid_count() > 0);
     const ValidateReport rep = validate(db, grid);
-    std::string examples;
-    for (const MismatchExample& m : rep.examples)
-      examples += "\n  " + m.set + " " + str(m.ray) + ": grid " + str(m.grid) + ", Embree " + str(m.embree);
-    INFO("mismatching rays:" << examples);
+    INFO("mismatching rays:" << mismatch_lines(rep));
     CHECK(rep.total.mismatches() == 0);
     CHECK(rep.primary.grid_hits > 0);
     }

@@ -63,10 +63,7 @@ TEST_CASE("grid: every SPD reference scene agrees with Embree (zero mismatches)"
     vp.height = 64;
     vp.random_rays = 20000;
     const ValidateReport rep = validate_grid(db, grid, embree, vp);
-    std::string examples;
-    for (const MismatchExample& m : rep.examples)
-      examples += "\n  " + m.set + " " + str(m.ray) + ": grid " + str(m.grid) + ", Embree " + str(m.embree);
-    INFO("mismatching rays:" << examples);
+    INFO("mismatching rays:" << mismatch_lines(rep));
     CHECK(rep.total.mismatches() == 0);
     CHECK(rep.primary.grid_hits > 0);
     CHECK(rep.random.grid_hits > rep.random.rays / 10);
@@ -88,10 +85,7 @@ TEST_CASE("grid: tetra-s9 primary rays agree with Embree, the referee allows for
   ValidateParams vp;
   vp.random_rays = 0;
   const ValidateReport rep = validate_grid(db, grid, embree, vp);
-  std::string examples;
-  for (const MismatchExample& m : rep.examples)
-    examples += "\n  " + m.set + " " + str(m.ray) + ": grid " + str(m.grid) + ", Embree " + str(m.embree);
-  INFO("mismatching rays:" << examples);
+  INFO("mismatching rays:" << mismatch_lines(rep));
   CHECK(rep.primary.rays == 512u * 512u);
   CHECK(rep.total.mismatches() == 0);
 }
@@ -115,10 +109,7 @@ TEST_CASE("grid: generated scenes, tessellated and curved, agree with Embree (ze
     vp.height = 64;
     vp.random_rays = 20000;
     const ValidateReport rep = validate_grid(db, grid, embree, vp);
-    std::string examples;
-    for (const MismatchExample& m : rep.examples)
-      examples += "\n  " + m.set + " " + str(m.ray) + ": grid " + str(m.grid) + ", Embree " + str(m.embree);
-    INFO("mismatching rays:" << examples);
+    INFO("mismatching rays:" << mismatch_lines(rep));
     CHECK(rep.total.mismatches() == 0);
     CHECK(rep.primary.grid_hits > 0);
     CHECK(rep.random.grid_hits > rep.random.rays / 10);

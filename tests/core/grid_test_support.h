@@ -20,6 +20,7 @@
 #include "core/math.h"
 #include "core/scene.h"
 #include "core/traverse.h"
+#include "core/validate.h"
 
 #include <doctest/doctest.h>
 
@@ -48,6 +49,14 @@ inline std::string str(const Hit& h) {
   char b[64];
   std::snprintf(b, sizeof b, "prim %u t=%.9g", h.primitive, h.t);
   return b;
+}
+
+/// A validate report's example mismatches, one per line, for INFO.
+inline std::string mismatch_lines(const ValidateReport& rep) {
+  std::string lines;
+  for (const MismatchExample& m : rep.examples)
+    lines += "\n  " + m.set + " " + str(m.ray) + ": grid " + str(m.grid) + ", Embree " + str(m.embree);
+  return lines;
 }
 
 inline float uniform(Rng& rng, float lo, float hi) { return std::uniform_real_distribution<float>(lo, hi)(rng); }
