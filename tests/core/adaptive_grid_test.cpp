@@ -280,8 +280,8 @@ TEST_CASE("adaptive grid: every leaf cell is reached exactly once from the top g
   for (const SubGrid& s : b.grid.sub_grids)
     for (std::uint32_t c = 0; c < s.info.cell_count(); ++c) {
       const std::uint32_t e = b.grid.cell_entries[s.first_entry + c];
-      const bool top_bit = (b.grid.top_sub_grid_bits[c >> 6] >> (c & 63)) & 1;
-      if (s.level == 0) CHECK(top_bit == bool(e & kSubGridEntry));
+      // The top grid's cells have a bit each (sub-grids' cells have none).
+      if (s.level == 0) CHECK(bool((b.grid.top_sub_grid_bits[c >> 6] >> (c & 63)) & 1) == bool(e & kSubGridEntry));
       // Every cell is leaf first_entry + c; a cell holding a sub-grid keeps
       // an empty placeholder there.
       REQUIRE(s.first_entry + c < seen.size());
