@@ -31,9 +31,11 @@ struct OiioModule {
                const void* pixels, char* error, unsigned error_size) = nullptr;
 };
 
-/// Loads the module from beside the executable, else from the build tree
-/// it was built in (RAYNODE_OIIO_MODULE_PATH). Throws std::runtime_error
-/// naming the places tried and dlopen's message.
+/// Loads the module from beside the executable (the build tree), else from
+/// the installed layout relative to the executable (bin/../lib/raynode,
+/// RAYNODE_OIIO_MODULE_INSTALLED), else from the build tree it was built in
+/// (RAYNODE_OIIO_MODULE_PATH: test programs live elsewhere in that tree).
+/// Throws std::runtime_error naming the places tried and dlopen's message.
 const OiioModule& oiio() {
   static OiioModule module;
   static std::string failure;
@@ -43,7 +45,10 @@ const OiioModule& oiio() {
     std::vector<std::string> places;
     std::error_code ec;
     const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-    if (!ec) places.push_back((exe.parent_path() / RAYNODE_OIIO_MODULE_NAME).string());
+    if (!ec) {
+      places.push_back((exe.parent_path() / RAYNODE_OIIO_MODULE_NAME).string());
+      places.push_back((exe.parent_path() / RAYNODE_OIIO_MODULE_INSTALLED / RAYNODE_OIIO_MODULE_NAME).lexically_normal().string());
+    }
     places.push_back(RAYNODE_OIIO_MODULE_PATH);
     std::string errors;
     for (const std::string& place : places) {
