@@ -10,6 +10,8 @@
 #include <vector>
 
 #include "apps/commands.h"
+#include "apps/output_files.h"
+#include "apps/run_info.h"
 #include "core/camera.h"
 #include "core/database.h"
 #include "core/direct_view.h"
@@ -34,7 +36,7 @@ struct BenchOptions {
   bool skip_empty = core::GridParams{}.skip_empty;
   GridChoice grid;  ///< --grid (default adaptive)
   std::uint32_t pack_min = core::kDefaultPackMin;  ///< --pack-cells; 0 = off
-  bool json = false;
+  std::string json;  ///< --json: "" none, "-" stdout, else a file
 };
 
 struct RaySet {
@@ -81,8 +83,14 @@ double best_seconds(int repeat, F&& f) {
 }
 
 void run_bench(const BenchOptions& o) {
+  std::vector<std::string> inputs;
+  for (const std::string& spec : o.scenes)
+    if (core::is_scene_file(spec)) inputs.push_back(spec);
+  OutputFiles files(inputs);
+  const std::size_t json_out = o.json.empty() ? 0 : files.add(o.json, "--json file", true);
+  const bool text = o.json != "-";  // the table, unless the JSON goes to stdout
   nlohmann::json out = nlohmann::json::array();
-  if (!o.json)
+  if (text)
     fmt::print("{:<12} {:>9} {:>12} {:>9} {:>10} {:>11} {:>11} {:>12} {:>12} {:>8}\n", "scene", "prims", "grid res",
                "build s", "rays", "cells/ray", "tests/ray", "grid Mray/s", "embree Mray/s", "ratio");
   for (const std::string& spec : o.scenes) {
@@ -149,17 +157,22 @@ void run_bench(const BenchOptions& o) {
                         {"jumps_per_ray", double(st.empty_jumps) / n},
                         {"tests_per_ray", double(st.triangle_tests + st.sphere_tests + st.cone_tests) / n},
                         {"empty_cells", grid.empty_cells()},
-                        {"checksum", sink}};
+                        {"checksum", sink},
+                        {"run", run_json()}};
     out.push_back(j);
-    if (!o.json)
+    if (text)
       fmt::print("{:<12} {:>9} {:>12} {:>9.2f} {:>10} {:>11.1f} {:>11.1f} {:>12.2f} {:>12.2f} {:>8.2f}\n", spec,
                  db.primitives.size(), fmt::format("{}x{}x{}", grid.info.res[0], grid.info.res[1], grid.info.res[2]),
                  build_s, std::uint64_t(n), double(st.cells_visited) / n,
                  double(st.triangle_tests + st.sphere_tests + st.cone_tests) / n, n / grid_s * 1e-6,
                  n / embree_s * 1e-6, ratio);
   }
-  if (o.json) fmt::print("{}\n", out.dump(2));
-  else fmt::print("ratio = grid time / Embree time (one thread, same rays; lower is better); grid res = the {} grid{}\n",
+  if (!o.json.empty()) {
+    files.text(json_out, out.dump(2) + "\n");
+    files.commit();
+  }
+  if (text)
+    fmt::print("ratio = grid time / Embree time (one thread, same rays; lower is better); grid res = the {} grid{}\n",
                   core::grid_kind_name(grid_kind_for(o.grid)),
                   grid_kind_for(o.grid) == core::GridKind::kAdaptive ? "'s top grid" : "");
 }
@@ -189,7 +202,7 @@ void register_bench_command(CLI::App& app) {
   add_grid_option(*c, o->grid);
   add_skip_empty_option(*c, o->skip_empty);
   add_pack_cells_option(*c, o->pack_min);
-  c->add_flag("--json", o->json, "Print JSON");
+  add_json_option(*c, o->json, "One object per scene");
   c->callback([o, w, h] {
     if (w->count() > 0 && h->count() == 0) o->height = 0;  // run_bench fits it to each scene's view
     if (h->count() > 0 && w->count() == 0) o->width = 0;

@@ -42,6 +42,7 @@ struct CostModelOptions {
   bool pager = true;
   std::vector<std::string> fit;  ///< features to fit; empty: all
   GridChoice grid;               ///< --grid (default adaptive)
+  bool quiet = false;            ///< -q: no progress lines
 };
 
 /// "name:size@R" -> SceneSource with --tessellate R.
@@ -196,6 +197,7 @@ void register_bench_cost_model_command(CLI::App& app) {
                 "Fit only these unit costs (e.g. empty_jump); the others keep the built-in model's [default: all]")
       ->check(CLI::IsMember(names))
       ->delimiter(',');
+  c->add_flag("--quiet,-q", o->quiet, "No progress lines on stderr");
   c->callback([o] {
     std::vector<core::CostSample> tiles, pager;
     std::vector<std::pair<std::string, std::vector<core::CostSample>>> per_scene;
@@ -205,12 +207,12 @@ void register_bench_cost_model_command(CLI::App& app) {
       core::GridParams gp;
       gp.kind = grid_kind_for(o->grid);
       const core::Grid grid = core::build_grid(db, gp);
-      fmt::print(stderr, "{}: tiles...\n", text);
+      if (!o->quiet) fmt::print(stderr, "{}: tiles...\n", text);
       std::vector<core::CostSample> t = tile_samples(db, grid, o->width, o->height, o->repeat);
       tiles.insert(tiles.end(), t.begin(), t.end());
       per_scene.emplace_back(text, std::move(t));
       if (o->pager) {
-        fmt::print(stderr, "{}: svm tiles...\n", text);
+        if (!o->quiet) fmt::print(stderr, "{}: svm tiles...\n", text);
         const std::vector<core::CostSample> p = pager_samples(db, grid, o->width, o->height, o->repeat);
         pager.insert(pager.end(), p.begin(), p.end());
       }

@@ -27,6 +27,8 @@
 #include <vector>
 
 #include "apps/commands.h"
+#include "apps/run_info.h"
+#include "apps/sweep_points.h"
 #include "apps/output_files.h"
 #include "apps/node_runs.h"
 #include "core/cell_blocks.h"
@@ -97,38 +99,36 @@ double round_trip_us(std::uint64_t trips) {
 
 struct NodesBenchOptions {
   core::SceneSource source;
-  std::vector<int> nodes{1, 2, 4, 8, 16, 32, 64};
+  std::string nodes = "1,2,4,8,16,32,64";  ///< --nodes: a list, "1,2,4" or "1..64" (parse_node_list)
   NodeRunOptions run = [] {
-    NodeRunOptions r;  // bench nodes' defaults: the full image, no network cost, room for any copy
+    NodeRunOptions r;  // the paper's 512x512 image; the machine's defaults are every command's
     r.width = r.height = 512;
-    r.node_memory = "16MiB";
-    r.network = "none";
     return r;
   }();
   std::string json_path;
   std::string mode = "replicated";
-  std::uint32_t cache_pages = 0;
-  std::uint32_t pack_min = 0;  ///< svm and the sequential reference: --pack-cells
+  std::uint32_t pack_min = 0;  ///< svm and the sequential reference: --pack-cells (off unless asked)
 };
 
 void run_bench_nodes(const NodesBenchOptions& o) {
   if (o.pack_min > 0 && o.mode != "svm")
     throw UsageError("--pack-cells " + std::to_string(o.pack_min) + " is for --mode svm; --mode " + o.mode +
                      " walks the paper's object lists (leave --pack-cells out)");
+  const std::vector<std::uint32_t> counts = parse_node_list(o.nodes);
   NodeRunSpec spec = make_node_run_spec(o.run);
-  spec.cache_pages = o.cache_pages;
   spec.pack_min = o.pack_min;
   // The --json file is checked before the runs ("-" is stdout).
   OutputFiles files(core::is_scene_file(o.source.spec) ? std::vector<std::string>{o.source.spec}
                                                        : std::vector<std::string>{});
   const std::size_t json_out = o.json_path.empty() ? 0 : files.add(o.json_path, "--json file", true);
+  std::FILE* report = files.uses_stdout() ? stderr : stdout;  // the table, beside JSON on stdout
   const core::Scene scene = core::load_scene(o.source);
   const core::Database db = core::make_database(scene);
   core::GridParams gp;
   gp.skip_empty = o.run.skip_empty;
   gp.kind = grid_kind_for(o.run.grid);
   const core::Grid grid = core::build_grid(db, gp);
-  fmt::print("{} {} {}x{}, network {}, node memory {}, clock {}, submaps {}, work grants {}, requests {}, {}, {} "
+  fmt::print(report, "{} {} {}x{}, network {}, node memory {}, clock {}, submaps {}, work grants {}, requests {}, {}, {} "
              "hardware threads, best of {}\n",
              o.mode, o.source.spec, o.run.width, o.run.height, o.run.network, o.run.node_memory, o.run.clock,
              o.run.submaps, o.run.work_grants, o.run.work_requests,
@@ -150,7 +150,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
     std::optional<core::CellBlocks> blocks;
     if (o.pack_min > 0) blocks = core::build_cell_blocks(db, grid, o.pack_min);
     const core::DirectView view(db, grid, blocks ? &*blocks : nullptr);
-    const bool pairs = std::find(o.nodes.begin(), o.nodes.end(), 1) != o.nodes.end();
+    const bool pairs = std::find(counts.begin(), counts.end(), 1u) != counts.end();
     for (int i = 0; i < std::max(1, o.run.repeat); ++i) {
       const auto t0 = std::chrono::steady_clock::now();
       const double c0 = nodes::thread_cpu_seconds();
@@ -165,7 +165,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
       if (!one_node || !r.fits || r.parallel_time_s < one_node->parallel_time_s) one_node = std::move(r);
     }
   }
-  fmt::print("sequential render: {:.4f} s wall, {:.4f} s CPU{}\n", sequential_s, sequential_cpu_s,
+  fmt::print(report, "sequential render: {:.4f} s wall, {:.4f} s CPU{}\n", sequential_s, sequential_cpu_s,
              one_node ? " (runs taken in turn with the one-node runs)" : "");
   const bool flow = o.mode == "dataflow";
   // Balanced submaps: the host's estimate ran before each run, outside
@@ -173,10 +173,10 @@ void run_bench_nodes(const NodesBenchOptions& o) {
   // eff_charged adds it to T_p, as serial work of one node before the run.
   const bool balanced = !flow && spec.submaps.rule == nodes::SubmapRule::kBalanced;
   if (flow)
-    fmt::print("{:>6} {:>9} {:>11} {:>9} {:>10} {:>10} {:>10} {:>10} {:>9}\n", "nodes", "wall_s", "T_p_s", "speedup",
+    fmt::print(report, "{:>6} {:>9} {:>11} {:>9} {:>10} {:>10} {:>10} {:>10} {:>9}\n", "nodes", "wall_s", "T_p_s", "speedup",
                "efficiency", "work_s", "ray_msgs", "spill", "avg_load");
   else
-    fmt::print("{:>6} {:>9} {:>11} {:>9} {:>10} {:>10} {:>8} {:>10} {:>9}{}\n", "nodes", "wall_s", "T_p_s", "speedup",
+    fmt::print(report, "{:>6} {:>9} {:>11} {:>9} {:>10} {:>10} {:>8} {:>10} {:>9}{}\n", "nodes", "wall_s", "T_p_s", "speedup",
                "efficiency", "work_s", "grants", "miss_ratio", "pages/px", balanced ? "  eff_charged" : "");
   nlohmann::json rows = nlohmann::json::array();
   double t1 = 0, t1_work_s = 0;  // the one-node run's T_p and busy time
@@ -194,14 +194,15 @@ void run_bench_nodes(const NodesBenchOptions& o) {
                           {"one_node_over_sequential_median",
                            one_node_median ? nlohmann::json(*one_node_median) : nlohmann::json()},
                           {"one_node_pair_ratios", pair_ratios},
-                          {"rows", rows}}
+                          {"rows", rows},
+                          {"run", run_json()}}
         .dump(2) +
         "\n";
   };
-  for (int n : o.nodes) {
+  for (const std::uint32_t n : counts) {
     const NodeRun best = n == 1 && one_node ? *one_node : run_best(db, grid, o.mode, spec, std::uint32_t(n));
     if (!best.fits) {
-      fmt::print("{:>6} skipped: {}\n", n, best.skipped);
+      fmt::print(report, "{:>6} skipped: {}\n", n, best.skipped);
       rows.push_back({{"nodes", n}, {"skipped", best.skipped}});
       continue;
     }
@@ -213,11 +214,11 @@ void run_bench_nodes(const NodesBenchOptions& o) {
     const double speedup = t1 > 0 ? t1 / tp : 0;
     const double charged = balanced ? charged_efficiency(t1, tp, n, best.estimate_s.value_or(0)) : 0;
     if (flow)
-      fmt::print("{:>6} {:>9.3f} {:>11.5f} {:>9.2f} {:>10.3f} {:>10.4f} {:>10} {:>10.5f} {:>9.3f}\n", n, best.wall_s,
+      fmt::print(report, "{:>6} {:>9.3f} {:>11.5f} {:>9.2f} {:>10.3f} {:>10.4f} {:>10} {:>10.5f} {:>9.3f}\n", n, best.wall_s,
                  tp, speedup, speedup / double(n), best.work_s, best.ray_messages.value_or(0),
                  best.spill_fraction.value_or(0), best.average_load.value_or(0));
     else
-      fmt::print("{:>6} {:>9.3f} {:>11.5f} {:>9.2f} {:>10.3f} {:>10.4f} {:>8} {:>10.5f} {:>9.2f}{}\n", n, best.wall_s,
+      fmt::print(report, "{:>6} {:>9.3f} {:>11.5f} {:>9.2f} {:>10.3f} {:>10.4f} {:>8} {:>10.5f} {:>9.2f}{}\n", n, best.wall_s,
                  tp, speedup, speedup / double(n), best.work_s, best.grants.value_or(0), best.miss_ratio.value_or(-1),
                  best.pages_per_pixel.value_or(-1),
                  balanced ? fmt::format(" {:>12.3f}", charged) : std::string());
@@ -244,9 +245,9 @@ void run_bench_nodes(const NodesBenchOptions& o) {
     rows.push_back(std::move(row));
     if (!o.json_path.empty()) files.update(json_out, json_doc());
   }
-  if (t1 == 0) fmt::print("(no 1-node run in --nodes: speedup needs T_1)\n");
+  if (t1 == 0) fmt::print(report, "(no 1-node run in --nodes: speedup needs T_1)\n");
   if (balanced)
-    fmt::print("eff_charged: T_1 / (N x (T_p + the host's load estimate)), the estimate that cut the balanced submaps "
+    fmt::print(report, "eff_charged: T_1 / (N x (T_p + the host's load estimate)), the estimate that cut the balanced submaps "
                "(one pixel per {0}x{0} block, traced before the run, outside virtual time) counted as serial work; "
                "one node traces none\n",
                o.run.subsample);
@@ -257,7 +258,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
   if (t1 > 0 && cpu_clock && sequential_cpu_s > 0) {
     one_node_ratio = t1_work_s / sequential_cpu_s;
     if (!pair_ratios.empty()) one_node_median = median(pair_ratios);
-    fmt::print("one node against sequential: {:.3f}x (the node's busy CPU time over sequential's, best of {} each, "
+    fmt::print(report, "one node against sequential: {:.3f}x (the node's busy CPU time over sequential's, best of {} each, "
                "taken in turn; median of the {} pairs' ratios {:.3f}x)\n",
                *one_node_ratio, std::max(1, o.run.repeat), pair_ratios.size(), one_node_median.value_or(0));
   }
@@ -294,21 +295,16 @@ void register_bench_nodes_commands(CLI::App& app) {
                                                "node counts (wall time, virtual T_p, speedup, efficiency)");
   add_scene_options(*c, no->source);
   add_camera_options(*c, no->source.view);
-  c->add_option("--nodes", no->nodes, "Node counts, comma-separated (include 1 for T_1)")
-      ->delimiter(',')
-      ->check(CLI::Range(1, 4096))
+  c->add_option("--nodes", no->nodes,
+                "Node counts: a comma-separated list and/or ranges of powers of two (1,2,4 or 1..64; include 1 "
+                "for T_1)")
       ->capture_default_str();
-  add_node_run_options(*c, no->run);
-  c->add_option("--json", no->json_path, "Also write the table as JSON to this file");
+  add_node_run_options(*c, no->run, {.experiment = true, .page_size = true, .cache = true, .dataflow = true});
+  add_json_option(*c, no->json_path, "The table (also printed as text unless the JSON goes to stdout)");
   c->add_option("--mode", no->mode, "Node mode: replicated, svm or dataflow")
       ->check(CLI::IsMember({"replicated", "svm", "dataflow"}))
       ->capture_default_str();
-  c->add_option("--cache", no->cache_pages, "svm: cache pages per node (0 = all free memory)")->capture_default_str();
-  c->add_option("--pack-cells", no->pack_min,
-                "svm and its sequential reference: pack cells of N or more triangles into SIMD blocks (0 = the "
-                "paper's object lists)")
-      ->check(CLI::Range(0, 1 << 20))
-      ->capture_default_str();
+  add_pack_cells_option(*c, no->pack_min);
   c->callback([no, c] {
     check_mode_options(*c, {no->mode});
     run_bench_nodes(*no);

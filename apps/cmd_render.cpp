@@ -25,6 +25,7 @@
 #include <unistd.h>
 
 #include "apps/commands.h"
+#include "apps/run_info.h"
 #include "apps/node_runs.h"
 #include "apps/output_files.h"
 #include "apps/progress.h"
@@ -66,85 +67,22 @@ struct RenderOptions {
   std::string stats_path;
   std::vector<std::string> aovs;
   bool quiet = false;
-  // Node-emulator modes (replicated; svm and dataflow later).
-  std::string node_memory = "4MiB";
-  std::string network = "none";
-  double network_scale = 0;  ///< seconds per ray for ipsc2; 0 = calibrate
-  std::string topology = "hypercube";
-  std::string work_item = "3x3";
-  double timeout_s = 0;
-  double stall_timeout_s = 60;
-  double schedule_window_us = 200;
-  std::string mail_wakeups = "auto";
-  std::string clock = "cpu";
-  std::string work_requests = "ring";
-  std::string work_grants = "item";
-  std::string submaps = "square";
-  // svm
-  std::uint32_t page_size = 1024;
-  std::string directory_order = "auto";  ///< auto, linear or bricked
-  std::string cache;  ///< "" = all free memory, "N" pages or "P%" of the database
-  // dataflow
-  int subsample = 8;
-  std::string partition = "balanced";
-  std::uint32_t queue_capacity = 0;  ///< node mailbox slots; 0 = the mode's default
+  double timeout_s = 0;  ///< --timeout: the process's watchdog (apps/watchdog.h)
+  /// The emulated machine and the node modes: the options every node-mode
+  /// command declares once (add_node_run_options); in-process modes refuse them.
+  NodeRunOptions run;
 };
-
-/// --cache: "N" pages or "P%" of the database's pages into params; throws UsageError.
-void parse_cache(const std::string& text, svm::SvmParams& params) {
-  if (text.empty()) return;
-  char* end = nullptr;
-  const double v = std::strtod(text.c_str(), &end);
-  const std::string rest(end ? end : "");
-  if (end == text.c_str() || !(rest.empty() || rest == "%") || !std::isfinite(v))
-    throw UsageError("--cache must be a page count (e.g. 200) or a percentage of the database (e.g. 10%), got '" +
-                     text + "'");
-  if (rest == "%") {
-    if (!(v > 0 && v <= 100))
-      throw UsageError("--cache percentage must be in (0, 100], got '" + text + "'");
-    params.cache_fraction = v / 100.0;
-  } else {
-    if (!(v >= 1 && v <= 4294967295.0) || v != std::floor(v))
-      throw UsageError("--cache must be a whole number of pages from 1 to 4294967295, or a percentage, got '" + text +
-                       "'");
-    params.cache_pages = std::uint32_t(v);
-  }
-}
-
-/// --submaps and --subsample as the control-oriented modes' submap params.
-nodes::SubmapParams submap_params(const RenderOptions& o) {
-  nodes::SubmapParams p;
-  p.rule = nodes::parse_submap_rule(o.submaps);  // CLI checked the name
-  p.subsample = o.subsample;
-  return p;
-}
 
 bool is_node_mode(const std::string& mode) { return mode == "replicated" || mode == "svm" || mode == "dataflow"; }
 
-/// The emulated machine for the node modes, from the options. Throws UsageError.
-nodes::MachineParams machine_params(const RenderOptions& o) {
-  nodes::MachineParams m;
-  m.nodes = std::uint32_t(o.nodes);
-  try {
-    m.node_memory = nodes::parse_bytes(o.node_memory);
-    m.topology = nodes::parse_topology(o.topology);
-  } catch (const std::invalid_argument& e) {
-    throw UsageError(std::string("--node-memory/--topology: ") + e.what());
-  }
-  try {
-    m.clock = nodes::parse_compute_clock(o.clock);
-    m.work_request_route = nodes::parse_work_request_route(o.work_requests);
-    m.work_grant = nodes::parse_work_grant(o.work_grants);
-  } catch (const std::invalid_argument& e) {
-    throw UsageError(std::string("--clock/--work-requests/--work-grants: ") + e.what());
-  }
-  m.network = nodes::make_network(o.network, o.network_scale,
-                                  m.clock == nodes::ComputeClock::kModel ? &m.cost_model : nullptr);
-  m.timeout_s = 0;  // --timeout is the process's watchdog (apps/watchdog.h), which the machine polls
-  m.stall_timeout_s = o.stall_timeout_s;
-  m.schedule_window_s = o.schedule_window_us * 1e-6;
-  if (o.mail_wakeups != "auto") m.scheduled_mail = o.mail_wakeups == "scheduled";
-  return m;
+/// The node modes' spec from the options (the network calibrated here, once),
+/// with the machine's node count and --timeout left to the process's
+/// watchdog, which the machine polls. Throws UsageError.
+NodeRunSpec node_spec(const RenderOptions& o) {
+  NodeRunSpec spec = make_node_run_spec(o.run);
+  spec.machine.nodes = std::uint32_t(o.nodes);
+  spec.machine.timeout_s = 0;
+  return spec;
 }
 
 /// What a frame produced besides the RenderResult (node modes only).
@@ -233,12 +171,13 @@ core::RenderResult render_frame(const RenderOptions& o, const core::Database& db
     throw UsageError("--pack-cells " + std::to_string(o.pack_min) + " is for --mode sequential, shared or svm; --mode " +
                      o.mode + " walks the paper's object lists (leave --pack-cells out)");
   if (o.mode == "dataflow") {
+    const NodeRunSpec spec = node_spec(o);
     dataflow::DataflowParams dp;
     dp.render = params;
-    dp.machine = machine_params(o);
-    dp.machine.mailbox_capacity = o.queue_capacity;
-    dp.subsample = o.subsample;
-    dp.partition = dataflow::parse_partition(o.partition);
+    dp.machine = spec.machine;
+    dp.machine.mailbox_capacity = spec.queue_capacity;
+    dp.subsample = spec.subsample;
+    dp.partition = spec.partition;
     dp.region_aov = region_aov || node_aov;
     dp.grid.kind = grid_kind_for(o.grid);  // each region's local grid: --grid's kind, as the host's
     dataflow::DataflowResult r = dataflow::render_dataflow(db, *accel.grid, dp);
@@ -255,11 +194,12 @@ core::RenderResult render_frame(const RenderOptions& o, const core::Database& db
     return std::move(r.render);
   }
   if (o.mode == "replicated") {
+    const NodeRunSpec spec = node_spec(o);
     nodes::ReplicatedParams rp;
     rp.render = params;
-    rp.machine = machine_params(o);
-    std::tie(rp.item_w, rp.item_h) = parse_work_item(o.work_item);
-    rp.submaps = submap_params(o);
+    rp.machine = spec.machine;
+    rp.item_w = spec.item_w, rp.item_h = spec.item_h;
+    rp.submaps = spec.submaps;
     rp.node_aov = node_aov;
     nodes::ReplicatedResult r = nodes::render_replicated(db, *accel.grid, rp);
     extras.nodes = r.run.to_json(true);
@@ -271,19 +211,17 @@ core::RenderResult render_frame(const RenderOptions& o, const core::Database& db
     return std::move(r.render);
   }
   if (o.mode == "svm") {
+    const NodeRunSpec spec = node_spec(o);
     svm::SvmParams sp;
     sp.render = params;
-    sp.machine = machine_params(o);
-    std::tie(sp.item_w, sp.item_h) = parse_work_item(o.work_item);
-    sp.page_size = o.page_size;
-    try {
-      sp.directory_order = svm::parse_directory_order(o.directory_order);
-    } catch (const std::invalid_argument& e) {
-      throw UsageError(std::string("--directory-order: ") + e.what());
-    }
+    sp.machine = spec.machine;
+    sp.item_w = spec.item_w, sp.item_h = spec.item_h;
+    sp.page_size = spec.page_size;
+    sp.directory_order = spec.directory_order;
     sp.pack_min = o.pack_given ? o.pack_min : 0;  // svm pages the paper's object lists unless asked
-    parse_cache(o.cache, sp);
-    sp.submaps = submap_params(o);
+    sp.cache_pages = spec.cache_pages;
+    sp.cache_fraction = spec.cache_fraction;
+    sp.submaps = spec.submaps;
     sp.node_aov = node_aov;
     sp.pages_aov = pages_aov;
     svm::SvmResult r = svm::render_svm(db, *accel.grid, sp);
@@ -453,6 +391,7 @@ void run_render(const RenderOptions& o) {
           {"spheres", dc.spheres},
           {"cones", dc.cones}}},
         {"output", o.output},
+        {"run", run_json()},
     };
     if (accel.grid) {
       j["grid_resolution"] = {accel.grid->info.res[0], accel.grid->info.res[1], accel.grid->info.res[2]};
@@ -525,7 +464,7 @@ void register_render_command(CLI::App& app) {
       ->capture_default_str();
   c->add_option("--nodes", o->nodes,
                 "Emulated nodes (threads with private memories), for the node-emulator modes (replicated, svm, "
-                "dataflow); sequential and shared need 1")
+                "dataflow); sequential and shared need 1. N > 1 without --mode renders with svm")
       ->check(CLI::Range(1, 4096))
       ->capture_default_str();
   c->add_option("--accel", o->accel,
@@ -569,87 +508,7 @@ void register_render_command(CLI::App& app) {
                 "(dataflow: NAME.region.exr, the region of each primary hit, -1 on a miss)")
       ->delimiter(',')
       ->check(CLI::IsMember({"depth", "normal", "primitive", "node", "pages", "region"}));
-  c->add_option("--page-size", o->page_size,
-                "svm: bytes per page of the shared virtual memory, a power of two from 64 (the paper: 1024)")
-      ->capture_default_str();
-  c->add_option("--directory-order", o->directory_order, kDirectoryOrderHelp)
-      ->check(CLI::IsMember({"auto", "linear", "bricked"}))
-      ->capture_default_str();
-  c->add_option("--cache", o->cache,
-                "svm: page cache per node, N pages or P% of the database's pages (default: all the memory a node "
-                "has left after its home pages, page table and mailbox)");
-  c->add_option("--subsample", o->subsample,
-                "dataflow, and replicated/svm with --submaps balanced: the load estimate traces one pixel per NxN "
-                "block (8 = the paper's 1.5%); --aov region "
-                "(NAME.region.exr) shows the region of each primary hit, -1 on a miss")
-      ->check(CLI::Range(1, 4096))
-      ->capture_default_str();
-  c->add_option("--partition", o->partition,
-                "dataflow: balanced (median cuts on the estimated load, the paper's method) or equal (equal-size "
-                "regions, the paper's comparison)")
-      ->check(CLI::IsMember({"balanced", "equal"}))
-      ->capture_default_str();
-  c->add_option("--queue-capacity", o->queue_capacity,
-                "dataflow: slots of each node's mailbox (default 1024); a ray for a full mailbox goes to the host, "
-                "which forwards it later (1 forces spills)")
-      ->check(CLI::Range(1, 1 << 20));
-  c->add_option("--node-memory", o->node_memory,
-                "Node modes: memory budget per node (B, KiB, MiB, GiB; the iPSC/2 node had 4 MiB)")
-      ->capture_default_str();
-  c->add_option("--network", o->network,
-                "Node modes: network cost model for virtual time: none (free), ipsc2 (the paper's iPSC/2 scaled to "
-                "this machine's ray speed), cluster (1.5 us, 12.5 GB/s)")
-      ->check(CLI::IsMember({"none", "ipsc2", "cluster"}))
-      ->capture_default_str();
-  c->add_option("--network-scale", o->network_scale,
-                "ipsc2: this machine's seconds per ray (default: measured at start, ~0.1 s)")
-      ->check(finite_positive());
-  c->add_option("--topology", o->topology, "Node modes: interconnect: hypercube (iPSC/2), ring, torus")
-      ->check(CLI::IsMember({"hypercube", "ring", "torus"}))
-      ->capture_default_str();
-  c->add_option("--work-item", o->work_item, "replicated, svm: pixels per work item, WxH")->capture_default_str();
-  c->add_option("--work-requests", o->work_requests,
-                "replicated, svm: where an idle node asks for work: ring (the paper: to its ring successor, on "
-                "round the ring), last-grantor (first straight to the node that gave it its last item, then "
-                "the ring: fewer hops) or off (no requests: each node renders its static submap and nothing "
-                "else, the baseline that shows what the requests gain; which node renders which pixel no "
-                "longer depends on thread scheduling)")
-      ->check(CLI::IsMember({"ring", "last-grantor", "off"}))
-      ->capture_default_str();
-  c->add_option("--work-grants", o->work_grants,
-                "replicated, svm: what a busy node grants a work request: item (the paper: one work item from "
-                "the far end of its submap), nearest (one work item, the one nearest the requester's last, so "
-                "that its items lie together) or half (the far half of its remaining item rows, or of its last "
-                "row's items, as one rectangle that the requester renders as its new submap and grants from in "
-                "turn: a requester's pixels stay together, so its cache and svm's pages serve more of them)")
-      ->check(CLI::IsMember({"item", "nearest", "half"}))
-      ->capture_default_str();
-  c->add_option("--submaps", o->submaps,
-                "replicated, svm: the nodes' static submaps: square (the paper: near-square parts of equal area) "
-                "or balanced (parts of near-equal cost, estimated by tracing one pixel per --subsample block on "
-                "the host first: fewer pixels move by work requests, so svm's nodes fault on fewer pages)")
-      ->check(CLI::IsMember({"square", "balanced"}))
-      ->capture_default_str();
-  c->add_option("--schedule-window", o->schedule_window_us,
-                "Node modes: virtual-time scheduling window in microseconds: a node this far ahead of a waiting "
-                "one hands the CPU over (smaller = closer to a real parallel machine, more thread switches; "
-                "negative = off, the OS schedules the node threads)")
-      ->check(finite_range(-kNoBound, kNoBound))
-      ->capture_default_str();
-  c->add_option("--mail-wakeups", o->mail_wakeups, kMailWakeupsHelp)
-      ->check(CLI::IsMember({"auto", "scheduled", "immediate"}))
-      ->capture_default_str();
-  c->add_option("--clock", o->clock,
-                "Node modes: what advances a node's virtual clock while it computes: cpu (its thread's CPU time) "
-                "or model (operation counts x calibrated unit costs: repeatable, free of the host's thread "
-                "switches; see `raynode bench cost-model`)")
-      ->check(CLI::IsMember({"cpu", "model"}))
-      ->capture_default_str();
-  c->add_option("--stall-timeout", o->stall_timeout_s,
-                "Node modes: stop with an error naming what each node waits for when no message was sent for "
-                "this many wall seconds (0 = never)")
-      ->check(finite_range(0, 1e9))
-      ->capture_default_str();
+  add_node_run_options(*c, o->run, {.experiment = false, .page_size = true, .cache = true, .dataflow = true});
   c->add_option("--timeout", o->timeout_s,
                 "Stop with an error (exit 1, no file written) after this many wall seconds (0 = never); in the node "
                 "modes the message names what each node waits for")
@@ -657,6 +516,15 @@ void register_render_command(CLI::App& app) {
   c->add_flag("--quiet,-q", o->quiet, "Print nothing on success, no progress line");
   c->callback([o, c] {
     o->pack_given = c->get_option("--pack-cells")->count() > 0;
+    // `render SCENE --nodes=N` is how users are told to render on N nodes:
+    // without --mode it runs the paper's main algorithm.
+    if (o->nodes > 1 && c->get_option("--mode")->count() == 0) {
+      o->mode = "svm";
+      if (!o->quiet)
+        fmt::print(stderr, "raynode: --nodes {} without --mode: rendering with svm, the paper's shared virtual memory "
+                           "algorithm (--mode replicated or dataflow picks another)\n",
+                   o->nodes);
+    }
     // No option is ignored without a word: one that this mode does not read is a usage error.
     check_mode_options(*c, {o->mode});
     start_timeout_watchdog(o->timeout_s);  // from process start, over every step

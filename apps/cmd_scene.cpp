@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/commands.h"
+#include "apps/run_info.h"
 #include "apps/output_files.h"
 #include "apps/watchdog.h"
 #include "core/database.h"
@@ -17,7 +18,7 @@ namespace {
 
 struct InfoOptions {
   core::SceneSource source;
-  bool json = false;
+  std::string json;  ///< --json: "" none, "-" stdout, else a file
   std::string grid;  ///< --grid [adaptive|uniform]: "" = no grid, "adaptive" when given bare
 };
 
@@ -66,9 +67,13 @@ void run_info(const InfoOptions& o) {
                                  levels[i].grids, levels[i].grids == 1 ? "" : "s", levels[i].cells,
                                  levels[i].leaf_cells, levels[i].empty_cells, levels[i].references);
   }
-  if (o.json) {
-    fmt::print("{}\n", j.dump(2));
-    return;
+  if (!o.json.empty()) {
+    j["run"] = run_json();
+    OutputFiles files(core::is_scene_file(o.source.spec) ? std::vector<std::string>{o.source.spec}
+                                                         : std::vector<std::string>{});
+    files.text(files.add(o.json, "--json file", true), j.dump(2) + "\n");
+    files.commit();
+    if (o.json == "-") return;
   }
   fmt::print("scene       {}{}\n", o.source.spec,
              o.source.tessellate ? fmt::format(" (tessellated, R={})", o.source.tessellate) : "");
@@ -90,7 +95,7 @@ void register_scene_commands(CLI::App& app) {
   auto info = std::make_shared<InfoOptions>();
   CLI::App* ci = scene->add_subcommand("info", "Print counts per entity kind (as the SPD programs count them)");
   add_scene_options(*ci, info->source);
-  ci->add_flag("--json", info->json, "Print JSON instead of text");
+  add_json_option(*ci, info->json, "The counts and sizes");
   // A flag, so that `--grid SCENE` never takes the scene as its value.
   ci->add_flag("--grid{adaptive}", info->grid,
                "Also build the grid and print its structure (levels, cells and leaf cells per level, references, "

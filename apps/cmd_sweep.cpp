@@ -219,6 +219,7 @@ struct SweepOptions {
   NodeRunOptions run;
   bool full = false;
   std::string output;  ///< PREFIX; "" = sweep-KIND-SCENE
+  bool quiet = false;  ///< -q: no progress lines or notes on stderr
 };
 
 /// "rings:4 -t 1": the scene as the paper's tables name the command.
@@ -250,6 +251,7 @@ void add_sweep_options(CLI::App& c, SweepOptions& o, NodeRunOptionSet set) {
   CLI::Option* full = c.add_flag("--full", o.full, "The paper's 512x512 image (instead of --width x --height)");
   full->excludes(c.get_option("--width"));
   full->excludes(c.get_option("--height"));
+  c.add_flag("--quiet,-q", o.quiet, "No progress lines or notes on stderr (the table still goes to stdout)");
   c.add_option("-o,--output", o.output,
                "Output prefix: writes PREFIX.csv, PREFIX.png and PREFIX.plot.py (default: sweep-KIND-SCENE, e.g. "
                "sweep-nodes-teapot8)");
@@ -266,6 +268,7 @@ struct SweepFrame {
   NodeRunSpec spec;
   std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
   std::size_t total = 0, done = 0;  ///< runs planned and finished
+  bool quiet = false;                ///< -q: no progress lines or notes
   std::unique_ptr<OutputFiles> outputs;  ///< PREFIX.csv (checked before the runs)
   std::size_t csv = 0;                   ///< its index in `outputs`
   const Table* table = nullptr;          ///< the sweep's table, saved to PREFIX.csv after every run
@@ -285,9 +288,11 @@ struct SweepFrame {
                               100.0 * t1_s / r.parallel_time_s / double(nodes));
       result += fmt::format(" (wall {:.2f} s)", r.wall_s);
     }
-    fmt::print(stderr, "sweep {}: [{}/{}] {}: {}; elapsed {}, ETA {}\n", kind, done, total, what, result,
-               format_duration(elapsed), done < total ? format_duration(eta) : "done");
-    std::fflush(stderr);
+    if (!quiet) {
+      fmt::print(stderr, "sweep {}: [{}/{}] {}: {}; elapsed {}, ETA {}\n", kind, done, total, what, result,
+                 format_duration(elapsed), done < total ? format_duration(eta) : "done");
+      std::fflush(stderr);
+    }
     // Every finished run is in the CSV at once: an interrupted sweep keeps them.
     if (table && outputs) outputs->update(csv, table->csv_text());
   }
@@ -297,6 +302,7 @@ SweepFrame make_frame(const std::string& kind, SweepOptions& o, const std::vecto
   if (o.full) o.run.width = o.run.height = 512;
   SweepFrame f;
   f.kind = kind;
+  f.quiet = o.quiet;
   f.scene = scene_label(o.source);
   f.prefix = o.output.empty() ? "sweep-" + kind + "-" + scene_slug(o.source) : o.output;
   // Fail before the runs, not after them, when the CSV cannot be written there.
@@ -378,8 +384,9 @@ NodeRun run_t1(SweepFrame& f, const std::string& mode, NodeRunSpec spec, std::st
   r = run_best(f.db, f.grid, mode, spec, 1, fallback);
   note = fmt::format("T_1 ran with --node-memory {} because one {} node cannot hold it ({})",
                      nodes::format_bytes(fallback), nodes::format_bytes(spec.machine.node_memory), why);
-  fmt::print(stderr, "sweep {}: note: {} T_1 runs with {} of node memory: {}\n", f.kind, mode,
-             nodes::format_bytes(fallback), why);
+  if (!f.quiet)
+    fmt::print(stderr, "sweep {}: note: {} T_1 runs with {} of node memory: {}\n", f.kind, mode,
+               nodes::format_bytes(fallback), why);
   return r;
 }
 
@@ -445,7 +452,7 @@ void run_sweep_nodes(NodesSweepOptions& o) {
   std::vector<std::uint32_t> counts = parse_node_list(o.nodes);
   if (counts.front() != 1) {
     counts.insert(counts.begin(), 1);
-    fmt::print(stderr, "sweep nodes: note: added 1 to --nodes: T_1 is each mode's own one-node run\n");
+    if (!o.quiet) fmt::print(stderr, "sweep nodes: note: added 1 to --nodes: T_1 is each mode's own one-node run\n");
   }
   SweepFrame f = make_frame("nodes", o, modes);
   f.total = modes.size() * counts.size();

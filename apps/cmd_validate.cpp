@@ -6,6 +6,8 @@
 #include <stdexcept>
 
 #include "apps/commands.h"
+#include "apps/output_files.h"
+#include "apps/run_info.h"
 #include "core/database.h"
 #include "core/embree_scene.h"
 #include "core/grid.h"
@@ -19,7 +21,8 @@ namespace {
 
 struct ValidateOptions {
   core::SceneSource source;
-  bool json = false;
+  std::string json;  ///< --json: "" none, "-" stdout, else a file
+  bool quiet = false;
   core::ValidateParams params;
   float density = core::GridParams{}.density;
   bool skip_empty = core::GridParams{}.skip_empty;
@@ -41,6 +44,9 @@ nlohmann::json counts_json(const core::ValidateCounts& c) {
 }
 
 void run_validate(const ValidateOptions& o) {
+  OutputFiles files(core::is_scene_file(o.source.spec) ? std::vector<std::string>{o.source.spec}
+                                                       : std::vector<std::string>{});
+  const std::size_t json_out = o.json.empty() ? 0 : files.add(o.json, "--json file", true);
   const core::Scene scene = core::load_scene(o.source);
   const core::Database db = core::make_database(scene);
   if (db.primitives.empty())  // nothing to compare: say so instead of "zero mismatches"
@@ -61,7 +67,7 @@ void run_validate(const ValidateOptions& o) {
     }
   }();
 
-  if (o.json) {
+  if (!o.json.empty()) {
     nlohmann::json j;
     j["scene"] = o.source.spec;
     j["tessellate"] = o.source.tessellate;
@@ -87,8 +93,11 @@ void run_validate(const ValidateOptions& o) {
                     {"grid", {{"t", e.grid.found() ? double(e.grid.t) : -1.0}, {"primitive", int64_t(e.grid.found() ? e.grid.primitive : -1)}}},
                     {"embree", {{"t", e.embree.found() ? double(e.embree.t) : -1.0}, {"primitive", int64_t(e.embree.found() ? e.embree.primitive : -1)}}}});
     j["examples"] = ex;
-    fmt::print("{}\n", j.dump(2));
-  } else {
+    j["run"] = run_json();
+    files.text(json_out, j.dump(2) + "\n");
+    files.commit();
+  }
+  if (o.json != "-" && !o.quiet) {
     fmt::print("validate {}: {} primitives, grid {}, t tolerance {} relative\n", o.source.spec,
                db.primitives.size(), grid_summary(grid), o.params.t_rel);
     fmt::print("{:<10} {:>9} {:>9} {:>9} {:>10} {:>11} {:>10} {:>10} {:>12} {:>11}\n", "rays", "count", "grid hit",
@@ -125,7 +134,8 @@ void register_validate_command(CLI::App& app) {
       "Embree and count mismatches; exit 1 if any");
   add_scene_options(*c, o->source);
   add_camera_options(*c, o->source.view);
-  c->add_flag("--json", o->json, "Print the counts as JSON");
+  add_json_option(*c, o->json, "The counts");
+  c->add_flag("--quiet,-q", o->quiet, "Print nothing; the exit status says whether any ray mismatched");
   CLI::Option* w = c->add_option("--width", o->params.width,
                                  "Primary rays: image width in pixels (given alone, the height keeps the view's "
                                  "aspect ratio) [default: 512]")

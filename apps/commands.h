@@ -75,6 +75,15 @@ std::vector<GridLevel> grid_levels(const core::Grid& grid);
 /// leaf cells, 123456 references" or "uniform 64x64x64, 123456 references".
 std::string grid_summary(const core::Grid& grid);
 
+/// Adds --json [FILE] to a subcommand, the one convention of every command
+/// that writes JSON: `--json` alone (or `--json -`) writes to stdout,
+/// `--json FILE` (or `--json=FILE`) to FILE, through OutputFiles (checked
+/// before any work, replaced whole at the end). After the parse `path` is
+/// "" when --json was not given, else "-" or the file. A FILE with a scene
+/// file's extension (.nff, .gz, a mesh's) is refused (exit 2): it is a
+/// scene that --json took for its file. `path` must outlive the parse.
+CLI::Option* add_json_option(CLI::App& cmd, std::string& path, const std::string& what);
+
 /// Adds --pack-cells N|off (core/cell_blocks.h: cells listing at least N
 /// triangles are tested in SIMD blocks; 0 = off) to a subcommand;
 /// `pack_min` must outlive the parse.

@@ -12,7 +12,9 @@
 #include <vector>
 
 #include "apps/commands.h"
+#include "apps/help_format.h"
 #include "apps/output_files.h"
+#include "apps/run_info.h"
 #include "apps/watchdog.h"
 #include "core/nff.h"
 
@@ -71,7 +73,9 @@ int main(int argc, char** argv) {
   CLI::App app{"raynode: the parallel ray tracers of Badouel, Bouatouch and Priol (IEEE CG&A 1994) on an "
                "emulated distributed-memory machine"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "raynode 0.1.0");
+  apps::use_wrapping_help(app);
+  apps::record_command_line(argc, argv);
+  app.set_version_flag("--version", std::string("raynode ") + apps::version());
   apps::register_scene_commands(app);
   apps::register_validate_command(app);
   apps::register_bench_command(app);
@@ -80,6 +84,7 @@ int main(int argc, char** argv) {
   apps::register_sweep_commands(app);
   apps::register_bench_quality_command(app);
   apps::register_bench_cost_model_command(app);
+  apps::group_options(app);
   if (const std::optional<std::string> unknown = unknown_command(app, argc, argv)) {
     fmt::print(stderr, "raynode: error: {}\nRun 'raynode --help' (or 'raynode COMMAND --help') for usage.\n", *unknown);
     return 2;

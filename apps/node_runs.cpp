@@ -21,76 +21,120 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 
 void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) {
-  add_grid_option(c, o.grid);
-  add_skip_empty_option(c, o.skip_empty);
-  c.add_option("--width", o.width, "Image width in pixels")->check(CLI::Range(1, 16384))->capture_default_str();
-  c.add_option("--height", o.height, "Image height in pixels")->check(CLI::Range(1, 16384))->capture_default_str();
-  c.add_option("--node-memory", o.node_memory, "Memory budget per node (B, KiB, MiB, GiB; the iPSC/2 node had 4 MiB)")
+  if (set.experiment) {
+    add_grid_option(c, o.grid);
+    add_skip_empty_option(c, o.skip_empty);
+    c.add_option("--width", o.width, "Image width in pixels")->check(CLI::Range(1, 16384))->capture_default_str();
+    c.add_option("--height", o.height, "Image height in pixels")->check(CLI::Range(1, 16384))->capture_default_str();
+  }
+  c.add_option("--node-memory", o.node_memory,
+               "Node modes: memory budget per node (B, KiB, MiB, GiB; the iPSC/2 node had 4 MiB)")
       ->capture_default_str();
   c.add_option("--network", o.network,
-               "Network cost model for virtual time: none (free), ipsc2 (the paper's iPSC/2 scaled to this "
-               "machine's ray speed, calibrated once per command), cluster (1.5 us, 12.5 GB/s)")
+               "Node modes: network cost model for virtual time: ipsc2 (the paper's iPSC/2 scaled to this machine's "
+               "ray speed, calibrated once per command), none (free), cluster (1.5 us, 12.5 GB/s)")
       ->check(CLI::IsMember({"none", "ipsc2", "cluster"}))
       ->capture_default_str();
   c.add_option("--network-scale", o.network_scale,
                "ipsc2: this machine's seconds per ray (default: measured once at start)")
       ->check(finite_positive());
-  c.add_option("--topology", o.topology, "Interconnect: hypercube (iPSC/2), ring, torus")
+  c.add_option("--topology", o.topology, "Node modes: interconnect: hypercube (iPSC/2), ring, torus")
       ->check(CLI::IsMember({"hypercube", "ring", "torus"}))
       ->capture_default_str();
   c.add_option("--work-item", o.work_item, "replicated, svm: pixels per work item, WxH")->capture_default_str();
   c.add_option("--work-requests", o.work_requests,
-               "replicated, svm: where an idle node asks for work: ring (the paper), last-grantor (first the "
-               "node that gave it its last item) or off (none: static submaps only)")
+               "replicated, svm: where an idle node asks for work: ring (the paper: to its ring successor, on round "
+               "the ring), last-grantor (first straight to the node that gave it its last item, then the ring: "
+               "fewer hops) or off (no requests: each node renders its static submap and nothing else, the "
+               "baseline that shows what the requests gain)")
       ->check(CLI::IsMember({"ring", "last-grantor", "off"}))
       ->capture_default_str();
   c.add_option("--work-grants", o.work_grants,
-               "replicated, svm: what a busy node grants: item (the paper: one work item), nearest (one work item, "
-               "the one nearest the requester's last) or half (half its remaining item rows as a rectangle the "
-               "requester takes as its submap)")
+               "replicated, svm: what a busy node grants a work request: item (the paper: one work item from the "
+               "far end of its submap), nearest (one work item, the one nearest the requester's last) or half (the "
+               "far half of its remaining item rows as one rectangle that the requester renders as its new "
+               "submap: a requester's pixels stay together, so svm's pages serve more of them)")
       ->check(CLI::IsMember({"item", "nearest", "half"}))
       ->capture_default_str();
   c.add_option("--submaps", o.submaps,
-               "replicated, svm: the nodes' static submaps: square (the paper) or balanced (parts of near-equal "
-               "cost, estimated on the host by tracing one pixel per --subsample block)")
+               "replicated, svm: the nodes' static submaps: square (the paper: near-square parts of equal area) or "
+               "balanced (parts of near-equal cost, estimated by tracing one pixel per --subsample block on the "
+               "host first)")
       ->check(CLI::IsMember({"square", "balanced"}))
       ->capture_default_str();
   c.add_option("--subsample", o.subsample,
-               "dataflow, and --submaps balanced: the load estimate traces one pixel per NxN block")
+               "dataflow, and replicated/svm with --submaps balanced: the load estimate traces one pixel per NxN "
+               "block (8 = the paper's 1.5%)")
       ->check(CLI::Range(1, 4096))
       ->capture_default_str();
   c.add_option("--schedule-window", o.schedule_window_us,
-               "Virtual-time scheduling window in microseconds (negative = off, the OS schedules the node threads)")
+               "Node modes: virtual-time scheduling window in microseconds: a node this far ahead of a waiting one "
+               "hands the CPU over (smaller = closer to a real parallel machine, more thread switches; negative = "
+               "off, the OS schedules the node threads)")
       ->check(finite_range(-kNoBound, kNoBound))
       ->capture_default_str();
   c.add_option("--mail-wakeups", o.mail_wakeups, kMailWakeupsHelp)
       ->check(CLI::IsMember({"auto", "scheduled", "immediate"}))
       ->capture_default_str();
   c.add_option("--clock", o.clock,
-               "What advances a node's clock while it computes: cpu (its thread's CPU time) or model (a cost "
-               "model of the work done: deterministic)")
+               "Node modes: what advances a node's virtual clock while it computes: cpu (its thread's CPU time) or "
+               "model (operation counts x calibrated unit costs: repeatable, free of the host's thread switches; "
+               "see `raynode bench cost-model`)")
       ->check(CLI::IsMember({"cpu", "model"}))
       ->capture_default_str();
-  c.add_option("--timeout", o.timeout_s, "Stop a run with an error after this many wall seconds (0 = never)")
-      ->check(finite_range(0, kNoBound));
-  c.add_option("--repeat", o.repeat, "Runs per point; the one with the lowest T_p is kept (best of)")
-      ->check(CLI::Range(1, 100))
+  c.add_option("--stall-timeout", o.stall_timeout_s,
+               "Node modes: stop with an error naming what each node waits for when no message was sent for this "
+               "many wall seconds (0 = never)")
+      ->check(finite_range(0, 1e9))
       ->capture_default_str();
+  if (set.experiment) {
+    c.add_option("--timeout", o.timeout_s, "Stop a run with an error after this many wall seconds (0 = never)")
+        ->check(finite_range(0, kNoBound));
+    c.add_option("--repeat", o.repeat, "Runs per point; the one with the lowest T_p is kept (best of)")
+        ->check(CLI::Range(1, 100))
+        ->capture_default_str();
+  }
   if (set.page_size) {
     c.add_option("--page-size", o.page_size,
-                 "svm: bytes per page, a power of two from 64 (the paper: 1024)")
+                 "svm: bytes per page of the shared virtual memory, a power of two from 64 (the paper: 1024)")
         ->capture_default_str();
     c.add_option("--directory-order", o.directory_order, kDirectoryOrderHelp)
         ->check(CLI::IsMember({"auto", "linear", "bricked"}))
         ->capture_default_str();
   }
+  if (set.cache)
+    c.add_option("--cache", o.cache,
+                 "svm: page cache per node, N pages or P% of the database's pages (default: all the memory a node "
+                 "has left after its home pages, page table and mailbox)");
   if (set.dataflow) {
-    c.add_option("--partition", o.partition, "dataflow: balanced (median cuts on the estimated load) or equal")
+    c.add_option("--partition", o.partition,
+                 "dataflow: balanced (median cuts on the estimated load, the paper's method) or equal (equal-size "
+                 "regions, the paper's comparison)")
         ->check(CLI::IsMember({"balanced", "equal"}))
         ->capture_default_str();
     c.add_option("--queue-capacity", o.queue_capacity,
-                 "dataflow: slots of each node's mailbox (default: the mode's, 1024)")
+                 "dataflow: slots of each node's mailbox (default 1024); a ray for a full mailbox goes to the host, "
+                 "which forwards it later (1 forces spills)")
         ->check(CLI::Range(1, 1 << 20));
+  }
+}
+
+void parse_cache(const std::string& text, std::uint32_t& pages, double& fraction) {
+  if (text.empty()) return;
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  const std::string rest(end ? end : "");
+  if (end == text.c_str() || !(rest.empty() || rest == "%") || !std::isfinite(v))
+    throw UsageError("--cache must be a page count (e.g. 200) or a percentage of the database (e.g. 10%), got '" +
+                     text + "'");
+  if (rest == "%") {
+    if (!(v > 0 && v <= 100)) throw UsageError("--cache percentage must be in (0, 100], got '" + text + "'");
+    fraction = v / 100.0;
+  } else {
+    if (!(v >= 1 && v <= 4294967295.0) || v != std::floor(v))
+      throw UsageError("--cache must be a whole number of pages from 1 to 4294967295, or a percentage, got '" + text +
+                       "'");
+    pages = std::uint32_t(v);
   }
 }
 
@@ -123,6 +167,7 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
     throw UsageError(std::string("--topology/--clock/--work-requests/--work-grants/--submaps: ") + e.what());
   }
   m.timeout_s = o.timeout_s;
+  m.stall_timeout_s = o.stall_timeout_s;
   m.schedule_window_s = o.schedule_window_us * 1e-6;
   if (o.mail_wakeups != "auto") m.scheduled_mail = o.mail_wakeups == "scheduled";
   try {
@@ -140,6 +185,7 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
   } catch (const std::invalid_argument& e) {
     throw UsageError(std::string("--directory-order: ") + e.what());
   }
+  parse_cache(o.cache, s.cache_pages, s.cache_fraction);
   s.subsample = o.subsample;
   s.submaps.subsample = o.subsample;
   s.partition = dataflow::parse_partition(o.partition);
@@ -151,12 +197,11 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
 namespace {
 
 /// True for the failures that mean "this configuration does not fit a
-/// node's memory": the modes' checks before a run (std::runtime_error
-/// naming the sizes) and an arena refusing an allocation inside a run.
+/// node's memory": a mode's check before a run, or a node that ran out of
+/// its memory inside one (nodes::DoesNotFit, typed: no message is read).
 bool is_fit_error(const std::exception& e) {
-  if (dynamic_cast<const nodes::NodeError*>(&e))
-    return std::string(e.what()).find("out of node memory") != std::string::npos;
-  return dynamic_cast<const std::runtime_error*>(&e) != nullptr;
+  if (const auto* ne = dynamic_cast<const nodes::NodeError*>(&e)) return ne->does_not_fit;
+  return dynamic_cast<const nodes::DoesNotFit*>(&e) != nullptr;
 }
 
 double busy_sum(const nodes::RunReport& run) {

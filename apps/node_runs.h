@@ -69,6 +69,7 @@ struct NodeRunOptions {
   std::string work_requests = "ring";   ///< ring, last-grantor or off (nodes::WorkRequestRoute)
   std::string work_grants = "item";     ///< item, nearest or half (nodes::WorkGrant)
   std::string submaps = "square";       ///< square or balanced (nodes::SubmapRule)
+  double stall_timeout_s = 60;          ///< wall seconds without a message before a run stops; 0 = never
   double timeout_s = 0;                 ///< per run, wall seconds; 0 = none
   int repeat = 1;                       ///< runs per point; the lowest T_p is kept
   bool skip_empty = true;               ///< grid: empty-space jumps (core::GridParams::skip_empty)
@@ -76,6 +77,7 @@ struct NodeRunOptions {
   // svm
   std::uint32_t page_size = 1024;       ///< bytes
   std::string directory_order = "auto"; ///< auto, linear or bricked (svm::parse_directory_order)
+  std::string cache;                    ///< "" = all free memory, "N" pages or "P%" of the database
   // dataflow
   int subsample = 8;                    ///< load estimate (and --submaps balanced's): one pixel per NxN block
   std::string partition = "balanced";   ///< balanced or equal
@@ -84,15 +86,25 @@ struct NodeRunOptions {
 
 /// Which options add_node_run_options adds besides the machine's.
 struct NodeRunOptionSet {
-  bool page_size = true;  ///< --page-size (svm)
-  bool dataflow = true;   ///< --partition, --queue-capacity
+  bool experiment = true;  ///< --width, --height, --grid, --skip-empty, --timeout (per run), --repeat
+  bool page_size = true;   ///< --page-size, --directory-order (svm)
+  bool cache = false;      ///< --cache N|P% (svm)
+  bool dataflow = true;    ///< --partition, --queue-capacity
 };
 
-/// Adds --width, --height, --node-memory, --network, --network-scale,
-/// --topology, --work-item, --schedule-window, --clock, --timeout, --repeat,
-/// --grid, --skip-empty and (per `set`) the svm and dataflow options to `cmd`, with `o`'s
-/// current values as the defaults shown in --help. `o` must outlive `cmd`.
+/// The one declaration of the emulated machine's and the node modes'
+/// options, for every command that runs them (render, bench nodes, sweep):
+/// --node-memory, --network, --network-scale, --topology, --work-item,
+/// --work-requests, --work-grants, --submaps, --subsample,
+/// --schedule-window, --mail-wakeups, --clock, --stall-timeout and, per
+/// `set`, the experiment's, svm's and dataflow's. Defaults are `o`'s
+/// current values (the paper's machine: 4 MiB nodes, the iPSC/2 network,
+/// a hypercube), shown in --help. `o` must outlive `cmd`.
 void add_node_run_options(CLI::App& cmd, NodeRunOptions& o, NodeRunOptionSet set = {});
+
+/// --cache: "N" pages into `pages`, or "P%" of the database's pages into
+/// `fraction` (0..1]; "" changes nothing. Throws UsageError.
+void parse_cache(const std::string& text, std::uint32_t& pages, double& fraction);
 
 /// Everything a run needs besides the node count, parsed and checked.
 struct NodeRunSpec {

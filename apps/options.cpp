@@ -4,6 +4,7 @@
 #include <fmt/core.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
@@ -13,6 +14,7 @@
 
 #include "apps/commands.h"
 #include "core/cell_blocks.h"
+#include "core/mesh_file.h"
 
 namespace raynode::apps {
 
@@ -74,6 +76,28 @@ void add_camera_options(CLI::App& cmd, core::ViewOverride& view) {
             return {};
           },
           "DEG in (0, 180)"));
+}
+
+CLI::Option* add_json_option(CLI::App& cmd, std::string& path, const std::string& what) {
+  return cmd
+      .add_option_function<std::string>(
+          "--json",
+          [&path](const std::string& file) {
+            path = file.empty() ? "-" : file;
+            const std::string lower = [&] {
+              std::string s = path;
+              for (char& c : s) c = char(std::tolower(static_cast<unsigned char>(c)));
+              return s;
+            }();
+            if (lower.ends_with(".nff") || lower.ends_with(".gz") || core::is_mesh_extension(lower))
+              throw CLI::ValidationError("--json", "'" + path +
+                                                       "' is a scene file, not a JSON file to write (--json "
+                                                       "alone goes before or after the scenes; --json=FILE names the "
+                                                       "file)");
+          },
+          what + " as JSON: to stdout with --json alone (or -), else to FILE")
+      ->expected(0, 1)
+      ->type_name("[FILE]");
 }
 
 void add_skip_empty_option(CLI::App& cmd, bool& skip_empty) {

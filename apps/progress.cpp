@@ -21,8 +21,12 @@ std::string short_count(std::uint64_t n) {
 
 std::string progress_text(const char* what, std::uint64_t done, std::uint64_t total, double seconds) {
   const int pct = total ? int(done * 100 / total) : 100;
-  return fmt::format("{}: {}% ({}/{} pixels) {:.1f} s", what, pct, short_count(done), short_count(total),
-                     seconds);
+  std::string text =
+      fmt::format("{}: {}% ({}/{} pixels) {:.1f} s", what, pct, short_count(done), short_count(total), seconds);
+  // The time left, at the rate so far, once there is a rate to go by.
+  if (done > 0 && done < total && seconds >= 1.0)
+    text += fmt::format(", ~{:.0f} s left", seconds * double(total - done) / double(done));
+  return text;
 }
 
 ProgressLine::ProgressLine(const char* what, const std::atomic<std::uint64_t>& counter, std::uint64_t total,
@@ -43,7 +47,7 @@ void ProgressLine::finish() {
   thread_.join();
   if (shown_) {
     const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-    fmt::print(stderr, "\r{:<48}\n", progress_text(what_, counter_.load(std::memory_order_relaxed), total_, s));
+    fmt::print(stderr, "\r{:<64}\n", progress_text(what_, counter_.load(std::memory_order_relaxed), total_, s));
     std::fflush(stderr);
   }
 }
@@ -54,7 +58,7 @@ void ProgressLine::run() {
   for (;;) {
     const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
     // Pad with spaces so a shorter line fully covers the previous one.
-    fmt::print(stderr, "\r{:<48}", progress_text(what_, counter_.load(std::memory_order_relaxed), total_, s));
+    fmt::print(stderr, "\r{:<64}", progress_text(what_, counter_.load(std::memory_order_relaxed), total_, s));
     std::fflush(stderr);
     shown_ = true;
     if (wake_.wait_for(lock, kRefresh, [this] { return stop_; })) return;

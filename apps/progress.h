@@ -1,8 +1,10 @@
 // A progress line on stderr for long renders:
-//   render: 45% (118k/262k pixels) 0.9 s
+//   render: 45% (118k/262k pixels) 1.9 s, ~2 s left
 // refreshed in place with '\r' by a background thread that polls an atomic
 // pixel counter the renderer bumps once per row or tile
-// (core::RenderParams::progress). Nothing is printed during the first
+// (core::RenderParams::progress). In the node modes the counter is the
+// pixels the host has received (dataflow: the pixels whose first eye ray a
+// node has started). Nothing is printed during the first
 // second, when stderr is not a terminal (isatty), or when disabled (--quiet),
 // so short renders, pipes and logs stay clean. The renderer never waits for
 // this thread: the image and the render time are unaffected.

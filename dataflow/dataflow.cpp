@@ -3,6 +3,7 @@
 #include <fmt/core.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -78,6 +79,9 @@ struct Pending {
 struct NodeState {
   NodeState(const core::Camera& c) : camera(c) {}
   Arena* arena = nullptr;
+  /// The progress line's pixel counter (core::RenderParams::progress), or
+  /// null: a meter for the user, outside the emulated machine.
+  std::atomic<std::uint64_t>* progress = nullptr;
   core::GridInfo grid;
   core::Camera camera;
   core::Vec3 background;
@@ -292,6 +296,7 @@ class NodeTracer {
     const core::Ray ray = primary_ray(s_.camera, s_.spp, p.pixel, p.sample);
     ++st_.rays.primary;
     ++s_.stats.primaries;
+    if (p.sample == 0 && s_.progress) s_.progress->fetch_add(1, std::memory_order_relaxed);  // one per pixel
     std::uint8_t flags = 0;
     const int n2 = s_.spp * s_.spp;
     if (p.sample == std::uint32_t(n2)) flags = kRayFirstHit | kRayProbeOnly;
@@ -637,13 +642,13 @@ DataflowResult render_dataflow(const core::Database& db, const core::Grid& grid,
     rr.estimated_cost = cost_in(out.estimate.cost, partition.finite[r]);
     const std::size_t need = rr.bytes + primaries[r].size() * sizeof(PrimarySample) + budget.fixed;
     if (need > m.node_memory)
-      throw std::runtime_error(fmt::format(
-          "dataflow mode: region {} needs {} ({} B: {} primitives, {} ({}), {} own primary rays, {} for the "
-          "mailbox and buffers), --node-memory is {} ({} B)",
-          r, nodes::format_bytes(need), need, rr.primitives, grid_phrase(rr), nodes::format_bytes(rr.grid_bytes),
-          primaries[r].size(), nodes::format_bytes(budget.fixed),
-          nodes::format_bytes(m.node_memory),
-          m.node_memory));
+      throw nodes::DoesNotFit(
+          fmt::format("dataflow mode: region {} needs {} ({} B: {} primitives, {} ({}), {} own primary rays, {} for "
+                      "the mailbox and buffers), --node-memory is {} ({} B)",
+                      r, nodes::format_bytes(need), need, rr.primitives, grid_phrase(rr),
+                      nodes::format_bytes(rr.grid_bytes), primaries[r].size(), nodes::format_bytes(budget.fixed),
+                      nodes::format_bytes(m.node_memory), m.node_memory),
+          need, m.node_memory);
   }
   out.setup_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
@@ -670,6 +675,7 @@ DataflowResult render_dataflow(const core::Database& db, const core::Grid& grid,
     const RegionDatabase& rd = regions[ctx.id()];
     auto s = std::make_unique<NodeState>(camera);
     s->arena = &a;
+    s->progress = rp.progress;
     s->grid = rd.grid.info;
     s->background = db.background;
     s->scene_box = scene_box;

@@ -18,10 +18,11 @@ std::string format_bytes(std::size_t bytes) {
 
 ArenaExhausted::ArenaExhausted(NodeId node, std::size_t requested, std::size_t in_use, std::size_t budget,
                                const std::string& what)
-    : std::runtime_error(fmt::format("{}: out of node memory: {} needs {} ({} B) but {} of the {} budget ({} B) "
-                                     "is in use, {} B free",
-                                     node_name(node), what, format_bytes(requested), requested,
-                                     format_bytes(in_use), format_bytes(budget), budget, budget - in_use)),
+    : DoesNotFit(fmt::format("{}: out of node memory: {} needs {} ({} B) but {} of the {} budget ({} B) "
+                             "is in use, {} B free",
+                             node_name(node), what, format_bytes(requested), requested, format_bytes(in_use),
+                             format_bytes(budget), budget, budget - in_use),
+                 in_use + requested, budget),
       node(node),
       requested(requested),
       in_use(in_use),

@@ -37,8 +37,20 @@ inline constexpr NodeId kHost = 0xffffffffu;
 /// "node 3" or "host".
 std::string node_name(NodeId id);
 
+/// Something does not fit a node's memory: a mode's check before a run
+/// (svm's database or cache, a dataflow region, replicated's copy) or an
+/// allocation during one (ArenaExhausted). Carries the bytes needed and the
+/// node's budget; what() names them. Experiment commands record such a run
+/// as skipped; render exits 1 with the message.
+class DoesNotFit : public std::runtime_error {
+ public:
+  DoesNotFit(const std::string& message, std::size_t needed, std::size_t budget)
+      : std::runtime_error(message), needed(needed), budget(budget) {}
+  std::size_t needed, budget;  ///< bytes
+};
+
 /// Thrown when an allocation would exceed a node's memory budget.
-class ArenaExhausted : public std::runtime_error {
+class ArenaExhausted : public DoesNotFit {
  public:
   ArenaExhausted(NodeId node, std::size_t requested, std::size_t in_use, std::size_t budget, const std::string& what);
   NodeId node;

@@ -92,10 +92,14 @@ namespace {
 /// already starts with it.
 NodeError to_node_error(NodeId node, std::exception_ptr e) {
   std::string what;
+  bool fits = true;
   try {
     std::rethrow_exception(e);
   } catch (const NodeError& ne) {
     return ne;
+  } catch (const DoesNotFit& ex) {
+    what = ex.what();
+    fits = false;
   } catch (const std::exception& ex) {
     what = ex.what();
   } catch (...) {
@@ -103,7 +107,7 @@ NodeError to_node_error(NodeId node, std::exception_ptr e) {
   }
   const std::string name = node_name(node);
   if (what.rfind(name + ":", 0) != 0) what = name + ": " + what;
-  return NodeError(node, what);
+  return NodeError(node, what, !fits);
 }
 
 NodeReport make_report(NodeContext& ctx, double clock) {
@@ -179,7 +183,7 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
   } catch (const NodeError&) {
     throw;
   } catch (const ArenaExhausted& e) {
-    throw NodeError(e.node, e.what());
+    throw NodeError(e.node, e.what(), true);
   }
 
   std::mutex done_mutex;

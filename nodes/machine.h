@@ -84,8 +84,10 @@ inline constexpr std::uint32_t kMaxNodes = 4096;
 /// An exception thrown in a node (or the host), carried out of the run.
 class NodeError : public std::runtime_error {
  public:
-  NodeError(NodeId node, const std::string& message) : std::runtime_error(message), node(node) {}
+  NodeError(NodeId node, const std::string& message, bool does_not_fit = false)
+      : std::runtime_error(message), node(node), does_not_fit(does_not_fit) {}
   NodeId node;
+  bool does_not_fit;  ///< the cause was a DoesNotFit (a node ran out of its memory)
 };
 
 /// One participant's results.

@@ -87,10 +87,11 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
   const std::size_t fixed = Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload + PixelBatch::bytes(m.max_payload) +
                             sizeof(core::ShadingScratch) + work_farm_bytes(m.work_grant, submaps, params.item_w, params.item_h);
   if (copy_bytes + fixed > m.node_memory)
-    throw std::runtime_error(fmt::format(
-        "replicated mode: the database needs {} per node ({} B, plus {} for the mailbox and buffers), "
-        "--node-memory is {} ({} B)",
-        format_bytes(copy_bytes), copy_bytes, format_bytes(fixed), format_bytes(m.node_memory), m.node_memory));
+    throw DoesNotFit(fmt::format("replicated mode: the database needs {} per node ({} B, plus {} for the mailbox "
+                                 "and buffers), --node-memory is {} ({} B)",
+                                 format_bytes(copy_bytes), copy_bytes, format_bytes(fixed),
+                                 format_bytes(m.node_memory), m.node_memory),
+                     copy_bytes + fixed, m.node_memory);
 
   ReplicatedResult out;
   out.database_bytes = copy_bytes;
@@ -157,6 +158,9 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
   auto host_main = [&](NodeContext& host) {
     gather_pixels(host, [&](NodeId src, const Rect& r, std::uint32_t ch, std::span<const float> px) {
       if (ch != layout.channels) throw std::logic_error("host: pixel message with the wrong channel count");
+      if (params.render.progress)  // the progress line counts the pixels the host has received
+        params.render.progress->fetch_add(std::uint64_t(r.x1 - r.x0) * std::uint64_t(r.y1 - r.y0),
+                                          std::memory_order_relaxed);
       const float* p = px.data();
       for (int y = r.y0; y < r.y1; ++y)
         for (int x = r.x0; x < r.x1; ++x, p += ch) {

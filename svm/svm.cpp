@@ -107,12 +107,13 @@ std::uint32_t cache_frames_for(const PageLayout& layout, const SvmParams& params
                          : n > 1            ? "use more --node-memory or fewer nodes (each node's mailbox grows "
                                               "with the node count)"
                                             : "use more --node-memory";
-    throw std::runtime_error(fmt::format(
-        "svm mode: the database needs {} ({} pages of {} B), {} {} x {} hold {} for pages (each node keeps {} "
-        "for its page table, mailbox and buffers{}); {}",
-        nodes::format_bytes(layout.bytes()), layout.pages, ps, n, n == 1 ? "node" : "nodes",
-        nodes::format_bytes(budget), nodes::format_bytes(hold), nodes::format_bytes(fixed),
-        n > 1 ? ", and one cache page" : "", advice));
+    throw nodes::DoesNotFit(
+        fmt::format("svm mode: the database needs {} ({} pages of {} B), {} {} x {} hold {} for pages (each node "
+                    "keeps {} for its page table, mailbox and buffers{}); {}",
+                    nodes::format_bytes(layout.bytes()), layout.pages, ps, n, n == 1 ? "node" : "nodes",
+                    nodes::format_bytes(budget), nodes::format_bytes(hold), nodes::format_bytes(fixed),
+                    n > 1 ? ", and one cache page" : "", advice),
+        layout.bytes(), hold);
   }
   // Frames beyond the pager's 4 GiB (with the list buffer) are never given.
   const std::size_t addressable = kPagerMaxFrameBytes / ps > home + 1 ? kPagerMaxFrameBytes / ps - home - 1 : 0;
@@ -124,11 +125,12 @@ std::uint32_t cache_frames_for(const PageLayout& layout, const SvmParams& params
     want = std::max<std::uint64_t>(1, std::uint64_t(std::ceil(params.cache_fraction * double(layout.pages))));
   want = std::min<std::uint64_t>(want, useful);
   if (want > fit)
-    throw std::runtime_error(fmt::format(
-        "svm mode: a cache of {} pages of {} B does not fit in {}: --node-memory is {}, its {} home pages take {} "
-        "and its page table, mailbox and buffers {}, which leaves room for {} cache pages",
-        want, ps, nodes::node_name(node), nodes::format_bytes(budget), home, nodes::format_bytes(home_bytes),
-        nodes::format_bytes(fixed), fit));
+    throw nodes::DoesNotFit(
+        fmt::format("svm mode: a cache of {} pages of {} B does not fit in {}: --node-memory is {}, its {} home "
+                    "pages take {} and its page table, mailbox and buffers {}, which leaves room for {} cache pages",
+                    want, ps, nodes::node_name(node), nodes::format_bytes(budget), home,
+                    nodes::format_bytes(home_bytes), nodes::format_bytes(fixed), fit),
+        std::size_t(want) * ps + home_bytes + fixed, budget);
   return std::uint32_t(want);
 }
 
@@ -263,6 +265,9 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
   auto host_main = [&](NodeContext& host) {
     nodes::gather_pixels(host, [&](nodes::NodeId src, const Rect& r, std::uint32_t ch, std::span<const float> px) {
       if (ch != pixel_layout.channels) throw std::logic_error("host: pixel message with the wrong channel count");
+      if (params.render.progress)  // the progress line counts the pixels the host has received
+        params.render.progress->fetch_add(std::uint64_t(r.x1 - r.x0) * std::uint64_t(r.y1 - r.y0),
+                                          std::memory_order_relaxed);
       const float* p = px.data();
       for (int y = r.y0; y < r.y1; ++y)
         for (int x = r.x0; x < r.x1; ++x, p += ch) {
