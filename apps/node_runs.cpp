@@ -3,6 +3,7 @@
 #include <fmt/core.h>
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -177,8 +178,10 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
     throw UsageError(std::string("--network: ") + e.what());
   }
   std::tie(s.item_w, s.item_h) = parse_work_item(o.work_item);
-  if (o.page_size < 64 || (o.page_size & (o.page_size - 1)) != 0)
-    throw UsageError(fmt::format("--page-size must be a power of two >= 64, got {}", o.page_size));
+  if (o.page_size < svm::kMinPageSize || o.page_size > svm::kMaxPageSize || !std::has_single_bit(o.page_size))
+    throw UsageError(fmt::format("--page-size: page size must be a power of two from {} B (one primitive record) "
+                                 "to {} B, got {} B",
+                                 svm::kMinPageSize, svm::kMaxPageSize, o.page_size));
   s.page_size = o.page_size;
   try {
     s.directory_order = svm::parse_directory_order(o.directory_order);
