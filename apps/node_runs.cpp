@@ -22,6 +22,24 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 
 void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) {
+  // First: CLI11 runs the callbacks of given options in the order they were
+  // added, so the options below, when given, override the description.
+  c.add_option_function<std::string>(
+       "--machine",
+       [&o](const std::string& name) {
+         const MachineDescription m = load_machine(name);
+         o.machine = m.name;
+         if (m.node_memory) o.node_memory = *m.node_memory;
+         if (m.page_size) o.page_size = *m.page_size;
+         if (m.topology) o.topology = *m.topology;
+         if (m.clock) o.clock = *m.clock;
+         if (m.network) o.network = *m.network;
+         if (m.network_figures) o.network = "custom", o.network_figures = *m.network_figures;
+       },
+       "Node modes: the emulated machine from a description: ipsc2 (the paper's: 4 MiB nodes, 1 KiB pages, "
+       "hypercube, model clock, ipsc2 network) or a JSON file (docs/machines/: node_memory, page_size, topology, "
+       "clock, network as a preset or its figures); the other machine options, given, override it")
+      ->type_name("NAME|FILE");
   if (set.experiment) {
     add_grid_option(c, o.grid);
     add_skip_empty_option(c, o.skip_empty);
@@ -171,11 +189,31 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
   m.stall_timeout_s = o.stall_timeout_s;
   m.schedule_window_s = o.schedule_window_us * 1e-6;
   if (o.mail_wakeups != "auto") m.scheduled_mail = o.mail_wakeups == "scheduled";
-  try {
-    m.network = nodes::make_network(o.network, o.network_scale,
-                                    m.clock == nodes::ComputeClock::kModel ? &m.cost_model : nullptr);
-  } catch (const std::invalid_argument& e) {
-    throw UsageError(std::string("--network: ") + e.what());
+  if (o.network == "custom" && o.network_figures) {
+    // A described network: its figures, scaled to this host's tracing speed
+    // when the description gives its own (as the ipsc2 preset is scaled).
+    const NetworkFigures& f = *o.network_figures;
+    double scale = 1;
+    if (f.seconds_per_ray > 0) {
+      const double here = o.network_scale > 0                           ? o.network_scale
+                          : m.clock == nodes::ComputeClock::kModel ? nodes::model_seconds_per_ray(m.cost_model)
+                                                                   : nodes::calibrate_seconds_per_ray();
+      scale = here / f.seconds_per_ray;
+    }
+    m.network.name = o.machine;
+    m.network.scale = scale;
+    m.network.latency_s = scale * f.latency_s;
+    m.network.per_byte_s = scale * f.per_byte_s;
+    m.network.per_hop_s = scale * f.per_hop_s;
+    m.network.service_s = scale * f.service_s;
+    m.network.fault_s = f.fault_s < 0 ? -1.0 : scale * f.fault_s;
+  } else {
+    try {
+      m.network = nodes::make_network(o.network, o.network_scale,
+                                      m.clock == nodes::ComputeClock::kModel ? &m.cost_model : nullptr);
+    } catch (const std::invalid_argument& e) {
+      throw UsageError(std::string("--network: ") + e.what());
+    }
   }
   std::tie(s.item_w, s.item_h) = parse_work_item(o.work_item);
   if (o.page_size < svm::kMinPageSize || o.page_size > svm::kMaxPageSize || !std::has_single_bit(o.page_size))

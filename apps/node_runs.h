@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "apps/commands.h"
+#include "apps/machine_file.h"
 #include "core/database.h"
 #include "core/grid.h"
 #include "core/render.h"
@@ -58,6 +59,8 @@ inline constexpr const char* kDirectoryOrderHelp =
 /// the text is parsed later, so errors can name the option).
 struct NodeRunOptions {
   int width = 256, height = 256;        ///< pixels
+  std::string machine;                  ///< --machine NAME|FILE ("": none); sets the defaults below
+  std::optional<NetworkFigures> network_figures;  ///< --machine FILE's network figures (network "custom")
   std::string node_memory = "4MiB";     ///< per node (the iPSC/2's 4 MiB)
   std::string network = "ipsc2";        ///< none, ipsc2, cluster
   double network_scale = 0;             ///< ipsc2: this machine's seconds per ray; 0 = calibrate once

@@ -247,6 +247,7 @@ const std::vector<ModeOptionRule>& mode_option_rules() {
   static const std::vector<std::string> kSvm{"svm"};
   static const std::vector<std::string> kDataflow{"dataflow"};
   static const std::vector<ModeOptionRule> rules{
+      {"--machine", kNodeModes, "the emulated machine's description"},
       {"--node-memory", kNodeModes, "the emulated machine's memories"},
       {"--network", kNodeModes, "the emulated machine's network"},
       {"--network-scale", kNodeModes, "the emulated machine's network"},

@@ -1,0 +1,47 @@
+// `--machine NAME|FILE`: a description of the emulated distributed-memory
+// machine, read before the other machine options so that those given on the
+// command line override it. `ipsc2` is built in (docs/machines/ipsc2.json is
+// the same machine as a file, and the example of the format); a FILE is JSON:
+//
+//   {"name": "...", "about": "...",             (both optional, free text)
+//    "node_memory": "4MiB",                     (bytes with a unit)
+//    "page_size": 1024,                         (svm page, bytes)
+//    "topology": "hypercube|ring|torus",
+//    "clock": "cpu|model",
+//    "network": "none|ipsc2|cluster"            (a preset, or its figures:)
+//             | {"latency_s": s, "per_byte_s": s, "per_hop_s": s,
+//                "service_s": s, "fault_s": s,  (fault_s optional)
+//                "seconds_per_ray": s}}         (optional: that machine's one-node
+//                                                tracing speed; costs are then scaled
+//                                                to this host's, as ipsc2 is)
+//
+// Every key is optional; an unknown key, a wrong type or a bad value is an
+// error naming the file and the key.
+#pragma once
+
+#include <optional>
+#include <string>
+
+namespace raynode::apps {
+
+/// A network described by its figures (nodes::NetworkModel's, before scaling).
+struct NetworkFigures {
+  double latency_s = 0, per_byte_s = 0, per_hop_s = 0, service_s = 0;
+  double fault_s = -1;          ///< < 0: the cost model's
+  double seconds_per_ray = 0;   ///< > 0: scale every cost by (this host's seconds per ray) / this
+};
+
+/// What a machine description sets; unset fields keep the command's defaults.
+struct MachineDescription {
+  std::string name;
+  std::optional<std::string> node_memory, topology, clock;
+  std::optional<std::uint32_t> page_size;
+  std::optional<std::string> network;          ///< a preset name
+  std::optional<NetworkFigures> network_figures;  ///< or its figures
+};
+
+/// The built-in machine `name` ("ipsc2"), else the JSON file at `name`.
+/// Throws UsageError (exit 2) naming the file, the key and the problem.
+MachineDescription load_machine(const std::string& name);
+
+}  // namespace raynode::apps
