@@ -341,6 +341,19 @@ double magnitude_eps(const Bounds3& b) {
          std::max(max_component(abs(b.lower)), max_component(abs(b.upper)));
 }
 
+// The CSR cell lists of `ncells` cells from (cell, primitive) pairs, by a
+// counting sort: cell c lists primitives[start[c] .. start[c + 1]) in the
+// pairs' order (ascending ids when the pairs were made primitive by primitive).
+void pairs_to_csr(std::span<const std::pair<std::uint32_t, std::uint32_t>> pairs, std::uint32_t ncells,
+                  std::vector<std::uint32_t>& start, std::vector<std::uint32_t>& primitives) {
+  start.assign(std::size_t(ncells) + 1, 0);
+  for (const auto& pr : pairs) ++start[pr.first + 1];
+  for (std::uint32_t c = 0; c < ncells; ++c) start[c + 1] += start[c];
+  primitives.resize(pairs.size());
+  std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+  for (const auto& pr : pairs) primitives[fill[pr.first]++] = pr.second;
+}
+
 Grid build_uniform_grid(const Database& db, const GridParams& params) {
   Grid grid;
   GridInfo& info = grid.info;
@@ -369,12 +382,7 @@ Grid build_uniform_grid(const Database& db, const GridParams& params) {
     for_each_overlapped_cell(info, eps, db.primitives[pi], spans, work,
                              [&](int x, int y, int z) { pairs.emplace_back(info.cell_index(x, y, z), pi); }, poll_stop);
   }
-  grid.cell_start.assign(std::size_t(ncells) + 1, 0);
-  for (const auto& pr : pairs) ++grid.cell_start[pr.first + 1];
-  for (std::uint32_t c = 0; c < ncells; ++c) grid.cell_start[c + 1] += grid.cell_start[c];
-  grid.cell_primitives.resize(pairs.size());
-  std::vector<std::uint32_t> fill(grid.cell_start.begin(), grid.cell_start.end() - 1);
-  for (const auto& pr : pairs) grid.cell_primitives[fill[pr.first]++] = pr.second;
+  pairs_to_csr(pairs, ncells, grid.cell_start, grid.cell_primitives);
   compute_empty_distance(grid, params.skip_empty);
   return grid;
 }
@@ -431,7 +439,7 @@ class AdaptiveBuilder {
 
   // Builds the grid `info` over `prims` (ascending ids) at `level`; returns
   // its index in grid.sub_grids.
-  std::uint32_t build(const GridInfo& info, const std::vector<std::uint32_t>& prims, std::uint32_t level) {
+  std::uint32_t build(const GridInfo& info, std::span<const std::uint32_t> prims, std::uint32_t level) {
     const auto index = std::uint32_t(grid_.sub_grids.size());
     const std::uint32_t ncells = info.cell_count();
     const auto first = std::uint32_t(grid_.cell_entries.size());
@@ -452,14 +460,7 @@ class AdaptiveBuilder {
                                [&](int x, int y, int z) { pairs.emplace_back(info.cell_index(x, y, z), pi); }, poll);
     Grid local;
     local.info = info;
-    local.cell_start.assign(std::size_t(ncells) + 1, 0);
-    for (const auto& pr : pairs) ++local.cell_start[pr.first + 1];
-    for (std::uint32_t c = 0; c < ncells; ++c) local.cell_start[c + 1] += local.cell_start[c];
-    local.cell_primitives.resize(pairs.size());
-    {
-      std::vector<std::uint32_t> fill(local.cell_start.begin(), local.cell_start.end() - 1);
-      for (const auto& pr : pairs) local.cell_primitives[fill[pr.first]++] = pr.second;
-    }
+    pairs_to_csr(pairs, ncells, local.cell_start, local.cell_primitives);
     pairs = {};
     // A cell holding a sub-grid lists primitives, so it counts as non-empty.
     compute_empty_distance(local, params_.skip_empty);
@@ -487,8 +488,7 @@ class AdaptiveBuilder {
     }
     for (const auto& [c, sub] : children) {
       const std::uint32_t b = local.cell_start[c], e = local.cell_start[c + 1];
-      const std::vector<std::uint32_t> list(local.cell_primitives.begin() + b, local.cell_primitives.begin() + e);
-      const std::uint32_t child = build(sub, list, level + 1);
+      const std::uint32_t child = build(sub, std::span(local.cell_primitives).subspan(b, e - b), level + 1);
       grid_.cell_entries[first + c] = kSubGridEntry | child;
       if (level == 0) grid_.top_sub_grid_bits[c >> 6] |= std::uint64_t(1) << (c & 63);
     }
