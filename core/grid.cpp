@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -432,6 +433,11 @@ void choose_adaptive_resolution(const Bounds3& box, double cells, int max_resolu
   }
 }
 
+// make_sub_grid's estimate of the cells a surface crosses per cell area (a
+// plane crosses |n_x| + |n_y| + |n_z| cells per cell area, 1.5 on average
+// over directions).
+constexpr double kSurfaceCellsPerArea = 1.5;
+
 class AdaptiveBuilder {
  public:
   AdaptiveBuilder(const Database& db, const GridParams& params, Grid& grid)
@@ -508,20 +514,36 @@ class AdaptiveBuilder {
     const double m = double(sub.cell_count());
     if (m < 2) return false;
     set_cell_size(sub);
-    // Expected references per sub-cell: each primitive covers about
-    // prod_a min(res_a, clipped extent_a / cell_a + 1) cells.
+    // Expected references: each primitive covers about prod_a min(res_a,
+    // clipped extent_a / cell_a + 1) sub-cells, a sphere at most the cells
+    // its surface inside the clipped box crosses (its whole surface
+    // 4 pi r^2 times the box's share of the sphere's box to the power 2/3,
+    // about 1.5 cells thick), not its whole box's.
+    const double cell_area = std::pow(double(sub.cell_size[0]) * sub.cell_size[1] * sub.cell_size[2], 2.0 / 3.0);
     double refs = 0;
     for (const std::uint32_t id : list) {
-      const Bounds3 pb = db_.primitives[id].bounds();
-      double k = 1;
+      const Primitive& p = db_.primitives[id];
+      const Bounds3 pb = p.bounds();
+      double k = 1, share = 1;
       for (int a = 0; a < 3; ++a) {
         const double lo = std::max(double(pb.lower[a]), double(sub.bounds.lower[a]));
         const double hi = std::min(double(pb.upper[a]), double(sub.bounds.upper[a]));
         k *= std::min(double(sub.res[a]), std::max(0.0, hi - lo) / sub.cell_size[a] + 1.0);
+        const double full = double(pb.upper[a]) - double(pb.lower[a]);
+        if (full > 0) share *= std::max(0.0, hi - lo) / full;
+      }
+      if (p.kind == PrimitiveKind::kSphere) {
+        const double r = double(p.radius());
+        const double area = 4.0 * std::numbers::pi * r * r * std::cbrt(share * share);
+        k = std::min(k, kSurfaceCellsPerArea * area / cell_area + 1.0);
       }
       refs += k;
     }
-    return refs / m <= kSubGridGain * n;
+    // A sub-cell lists at most kSubGridGain of the cell's primitives, and a
+    // ray crossing the sub-grid (about cbrt(m) cells) meets at most the n
+    // references it would meet in the leaf.
+    const double r = refs / m;
+    return r <= kSubGridGain * n && std::cbrt(m) * r <= n;
   }
 
   const Database& db_;
