@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -120,12 +121,164 @@ bool triangle_overlaps_box(const Vec3& v0, const Vec3& v1, const Vec3& v2, const
 
 namespace {
 
+// Centre and inflated half-width, per axis, of the cells lo[a]..hi[a] a
+// primitive's box spans: computed once per primitive and axis, so that the
+// membership tests below cost a few adds per cell. Reused across primitives
+// (the builders own one).
+struct CellSpans {
+  std::vector<double> c[3], h[3];
+};
+
+// Fills `s` for cells lo[a]..hi[a] of `info` inflated by eps[a]: cell i's
+// box on axis a is [l, u] = lower + (i, i + 1) * cell_size, centre
+// (l + u) / 2, half-width (u - l) / 2 + eps[a].
+void fill_cell_spans(const GridInfo& info, const double eps[3], const int lo[3], const int hi[3], CellSpans& s) {
+  for (int a = 0; a < 3; ++a) {
+    const auto n = std::size_t(hi[a] - lo[a] + 1);
+    s.c[a].resize(n);
+    s.h[a].resize(n);
+    const double base = double(info.bounds.lower[a]), size = double(info.cell_size[a]);
+    for (std::size_t i = 0; i < n; ++i) {
+      const int idx = lo[a] + int(i);
+      const double l = base + double(idx) * size;
+      const double u = base + double(idx + 1) * size;
+      s.c[a][i] = 0.5 * (l + u);
+      s.h[a][i] = 0.5 * (u - l) + eps[a];
+    }
+  }
+}
+
+// Sphere membership (Arvo 1990): the squared distance from the centre to
+// the cell box is at most r^2 and the box is not entirely inside the
+// sphere (the surface must cross it). The squared distances add per-axis
+// terms, so they are tabulated per axis and a row of cells whose nearest
+// (farthest) cell is already too far (entirely inside) is skipped whole.
+template <class F, class Poll>
+void sphere_cells(const Primitive& p, const int lo[3], const int hi[3], CellSpans& s, std::size_t& work, F&& f,
+                  Poll&& poll) {
+  const double r = std::fabs(double(p.radius()));
+  const double r2 = r * r;
+  // Per axis a and cell i: near[a][i] and far[a][i], the squared distance
+  // on that axis to the nearest and farthest point of the cell's slab.
+  // Stored over the centre and half-width arrays, which are not needed after.
+  double min_near[3], max_far[3];
+  for (int a = 0; a < 3; ++a) {
+    const double q = double(p.data[a]);
+    min_near[a] = std::numeric_limits<double>::infinity();
+    max_far[a] = 0;
+    for (std::size_t i = 0; i < s.c[a].size(); ++i) {
+      const double lo_a = s.c[a][i] - s.h[a][i], hi_a = s.c[a][i] + s.h[a][i];
+      const double dl = q - lo_a, dh = hi_a - q;
+      const double near = q < lo_a ? dl * dl : (q > hi_a ? dh * dh : 0.0);
+      const double far_d = std::max(std::fabs(dl), std::fabs(dh));
+      s.c[a][i] = near;
+      s.h[a][i] = far_d * far_d;
+      min_near[a] = std::min(min_near[a], near);
+      max_far[a] = std::max(max_far[a], far_d * far_d);
+    }
+  }
+  const std::vector<double>&near_x = s.c[0], &far_x = s.h[0];
+  for (int z = lo[2]; z <= hi[2]; ++z) {
+    const double nz = s.c[2][std::size_t(z - lo[2])], fz = s.h[2][std::size_t(z - lo[2])];
+    for (int y = lo[1]; y <= hi[1]; ++y) {
+      if ((++work & 4095u) == 0) poll();
+      const double ny = s.c[1][std::size_t(y - lo[1])], fy = s.h[1][std::size_t(y - lo[1])];
+      // Sums in x, y, z order (the per-cell test's order); adding is
+      // monotone, so the row's bounds bound every cell's sum.
+      if ((min_near[0] + ny) + nz > r2 || (max_far[0] + fy) + fz < r2) continue;
+      for (int x = lo[0]; x <= hi[0]; ++x) {
+        if ((++work & 4095u) == 0) poll();
+        const std::size_t i = std::size_t(x - lo[0]);
+        if ((near_x[i] + ny) + nz <= r2 && (far_x[i] + fy) + fz >= r2) f(x, y, z);
+      }
+    }
+  }
+}
+
+// Triangle membership: the separating-axis test of tri_box_sat
+// (Akenine-Moeller 2001) with every term that depends on the triangle
+// alone computed once: the vertices' extents on the box normals, the
+// normal's and the nine edge axes' projections of the vertices. A cell then
+// costs its centre's projections; the three edge axes normal to x do not
+// depend on x and are tested once per row. Same axes and inflated boxes as
+// tri_box_sat, so the same cells up to the last bits of rounding.
+template <class F, class Poll>
+void triangle_cells(const Primitive& p, const int lo[3], const int hi[3], const CellSpans& s, std::size_t& work,
+                    F&& f, Poll&& poll) {
+  double v[3][3];
+  for (int k = 0; k < 3; ++k)
+    for (int a = 0; a < 3; ++a) v[k][a] = double(p.data[3 * k + a]);
+  double vmin[3], vmax[3];
+  for (int a = 0; a < 3; ++a) {
+    vmin[a] = std::min({v[0][a], v[1][a], v[2][a]});
+    vmax[a] = std::max({v[0][a], v[1][a], v[2][a]});
+  }
+  double e[3][3], ae[3][3];
+  for (int k = 0; k < 3; ++k)
+    for (int a = 0; a < 3; ++a) {
+      e[k][a] = v[(k + 1) % 3][a] - v[k][a];
+      ae[k][a] = std::fabs(e[k][a]);
+    }
+  const double n[3] = {e[0][1] * e[1][2] - e[0][2] * e[1][1], e[0][2] * e[1][0] - e[0][0] * e[1][2],
+                       e[0][0] * e[1][1] - e[0][1] * e[1][0]};
+  const double an[3] = {std::fabs(n[0]), std::fabs(n[1]), std::fabs(n[2])};
+  const double nv0 = n[0] * v[0][0] + n[1] * v[0][1] + n[2] * v[0][2];
+  // Edge k x unit axis a projects P to e[k][b] * P[c] - e[k][c] * P[b]
+  // (b = a + 1, c = a + 2 mod 3); the vertices' range on it.
+  double pmin[3][3], pmax[3][3];
+  for (int k = 0; k < 3; ++k)
+    for (int a = 0; a < 3; ++a) {
+      const int b = (a + 1) % 3, c = (a + 2) % 3;
+      double lo_p = std::numeric_limits<double>::infinity(), hi_p = -lo_p;
+      for (int j = 0; j < 3; ++j) {
+        const double d = e[k][b] * v[j][c] - e[k][c] * v[j][b];
+        lo_p = std::min(lo_p, d);
+        hi_p = std::max(hi_p, d);
+      }
+      pmin[k][a] = lo_p;
+      pmax[k][a] = hi_p;
+    }
+  // Separated on edge k x axis a, for the cell whose centre and half-width
+  // are (cb, hb) on axis b and (cc, hc) on axis c.
+  const auto separated = [&](int k, int a, double cb, double hb, double cc, double hc) {
+    const int b = (a + 1) % 3, c = (a + 2) % 3;
+    const double pc = e[k][b] * cc - e[k][c] * cb;
+    const double r = hb * ae[k][c] + hc * ae[k][b];
+    return pmin[k][a] - pc > r || pmax[k][a] - pc < -r;
+  };
+  const auto slab_separated = [&](int a, double c, double h) { return vmin[a] - c > h || vmax[a] - c < -h; };
+  for (int z = lo[2]; z <= hi[2]; ++z) {
+    const double cz = s.c[2][std::size_t(z - lo[2])], hz = s.h[2][std::size_t(z - lo[2])];
+    if (slab_separated(2, cz, hz)) continue;
+    for (int y = lo[1]; y <= hi[1]; ++y) {
+      if ((++work & 4095u) == 0) poll();
+      const double cy = s.c[1][std::size_t(y - lo[1])], hy = s.h[1][std::size_t(y - lo[1])];
+      if (slab_separated(1, cy, hy) || separated(0, 0, cy, hy, cz, hz) || separated(1, 0, cy, hy, cz, hz) ||
+          separated(2, 0, cy, hy, cz, hz))
+        continue;
+      const double n_yz = n[1] * cy + n[2] * cz, r_yz = an[1] * hy + an[2] * hz;
+      for (int x = lo[0]; x <= hi[0]; ++x) {
+        if ((++work & 4095u) == 0) poll();
+        const double cx = s.c[0][std::size_t(x - lo[0])], hx = s.h[0][std::size_t(x - lo[0])];
+        if (slab_separated(0, cx, hx)) continue;
+        const double d = nv0 - (n[0] * cx + n_yz), r = an[0] * hx + r_yz;
+        if (d > r || d < -r) continue;
+        bool sep = false;
+        for (int k = 0; k < 3 && !sep; ++k)
+          sep = separated(k, 1, cz, hz, cx, hx) || separated(k, 2, cx, hx, cy, hy);
+        if (!sep) f(x, y, z);
+      }
+    }
+  }
+}
+
 // Conservative cell membership of primitive `p` in the grid `info` whose
 // cells are inflated by eps[a] on axis a: calls f(x, y, z) for every cell
-// its surface may touch, in z, y, x order, and poll() every 4096 cells.
+// its surface may touch, in z, y, x order, and poll() every 4096 cells or
+// rows tested. `spans` is scratch.
 template <class F, class Poll>
-void for_each_overlapped_cell(const GridInfo& info, const double eps[3], const Primitive& p, std::size_t& work,
-                              F&& f, Poll&& poll) {
+void for_each_overlapped_cell(const GridInfo& info, const double eps[3], const Primitive& p, CellSpans& spans,
+                              std::size_t& work, F&& f, Poll&& poll) {
   const Bounds3& b = info.bounds;
   const Bounds3 pb = p.bounds();
   int lo[3], hi[3];
@@ -135,67 +288,38 @@ void for_each_overlapped_cell(const GridInfo& info, const double eps[3], const P
     lo[a] = clamped_floor(l, info.res[a]);
     hi[a] = clamped_floor(h, info.res[a]);
   }
-  auto cell_box = [&](int x, int y, int z, double c[3], double h[3]) {
-    const int idx[3] = {x, y, z};
-    for (int a = 0; a < 3; ++a) {
-      const double l = double(b.lower[a]) + double(idx[a]) * info.cell_size[a];
-      const double u = double(b.lower[a]) + double(idx[a] + 1) * info.cell_size[a];
-      c[a] = 0.5 * (l + u);
-      h[a] = 0.5 * (u - l) + eps[a];
-    }
-  };
-  const bool single = lo[0] == hi[0] && lo[1] == hi[1] && lo[2] == hi[2];
-  double tv[3][3];
-  if (p.kind == PrimitiveKind::kTriangle)
-    for (int i = 0; i < 3; ++i)
-      for (int a = 0; a < 3; ++a) tv[i][a] = p.data[3 * i + a];
+  if (lo[0] == hi[0] && lo[1] == hi[1] && lo[2] == hi[2]) {  // the box's one cell
+    if ((++work & 4095u) == 0) poll();
+    f(lo[0], lo[1], lo[2]);
+    return;
+  }
+  fill_cell_spans(info, eps, lo, hi, spans);
+  if (p.kind == PrimitiveKind::kTriangle) return triangle_cells(p, lo, hi, spans, work, f, poll);
+  if (p.kind == PrimitiveKind::kSphere) return sphere_cells(p, lo, hi, spans, work, f, poll);
+  // Cone: the cell's bounding sphere must reach the capsule around the axis
+  // segment with the larger radius (conservative; much tighter than the box
+  // for long, thin, slanted cylinders).
+  const double b0[3] = {p.data[0], p.data[1], p.data[2]};
+  const double ax[3] = {double(p.data[4]) - b0[0], double(p.data[5]) - b0[1], double(p.data[6]) - b0[2]};
+  const double len2 = ax[0] * ax[0] + ax[1] * ax[1] + ax[2] * ax[2];
+  const double radius = std::max(std::fabs(double(p.data[3])), std::fabs(double(p.data[7])));
   for (int z = lo[2]; z <= hi[2]; ++z)
     for (int y = lo[1]; y <= hi[1]; ++y)
       for (int x = lo[0]; x <= hi[0]; ++x) {
         if ((++work & 4095u) == 0) poll();
-        bool in = true;
-        if (!single) {
-          double c[3], h[3];
-          cell_box(x, y, z, c, h);
-          if (p.kind == PrimitiveKind::kTriangle) {
-            in = tri_box_sat(tv, c, h);
-          } else if (p.kind == PrimitiveKind::kSphere) {
-            // Arvo: squared distance from the centre to the box <= r^2, and
-            // the box not entirely inside the sphere (the surface must cross it).
-            const double r = std::fabs(double(p.radius()));
-            double dmin = 0, dmax = 0;
-            for (int a = 0; a < 3; ++a) {
-              const double q = double(p.data[a]);
-              const double lo_a = c[a] - h[a], hi_a = c[a] + h[a];
-              const double dl = q - lo_a, dh = hi_a - q;
-              if (q < lo_a) dmin += dl * dl;
-              else if (q > hi_a) dmin += dh * dh;
-              const double far = std::max(std::fabs(dl), std::fabs(dh));
-              dmax += far * far;
-            }
-            in = dmin <= r * r && dmax >= r * r;
-          } else {
-            // Cone: the cell's bounding sphere must reach the capsule
-            // around the axis segment with the larger radius (conservative;
-            // much tighter than the box for long, thin, slanted cylinders).
-            const double b0[3] = {p.data[0], p.data[1], p.data[2]};
-            const double ax[3] = {double(p.data[4]) - b0[0], double(p.data[5]) - b0[1], double(p.data[6]) - b0[2]};
-            const double len2 = ax[0] * ax[0] + ax[1] * ax[1] + ax[2] * ax[2];
-            double s = 0;
-            if (len2 > 0)
-              s = std::clamp(((c[0] - b0[0]) * ax[0] + (c[1] - b0[1]) * ax[1] + (c[2] - b0[2]) * ax[2]) / len2, 0.0,
-                             1.0);
-            double d2 = 0;
-            for (int a = 0; a < 3; ++a) {
-              const double q = b0[a] + s * ax[a] - c[a];
-              d2 += q * q;
-            }
-            const double reach = std::max(std::fabs(double(p.data[3])), std::fabs(double(p.data[7]))) +
-                                 std::sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
-            in = d2 <= reach * reach;
-          }
+        const std::size_t i[3] = {std::size_t(x - lo[0]), std::size_t(y - lo[1]), std::size_t(z - lo[2])};
+        const double c[3] = {spans.c[0][i[0]], spans.c[1][i[1]], spans.c[2][i[2]]};
+        const double h[3] = {spans.h[0][i[0]], spans.h[1][i[1]], spans.h[2][i[2]]};
+        double s = 0;
+        if (len2 > 0)
+          s = std::clamp(((c[0] - b0[0]) * ax[0] + (c[1] - b0[1]) * ax[1] + (c[2] - b0[2]) * ax[2]) / len2, 0.0, 1.0);
+        double d2 = 0;
+        for (int a = 0; a < 3; ++a) {
+          const double q = b0[a] + s * ax[a] - c[a];
+          d2 += q * q;
         }
-        if (in) f(x, y, z);
+        const double reach = radius + std::sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
+        if (d2 <= reach * reach) f(x, y, z);
       }
 }
 
@@ -218,6 +342,19 @@ double magnitude_eps(const Bounds3& b) {
          std::max(max_component(abs(b.lower)), max_component(abs(b.upper)));
 }
 
+// The CSR cell lists of `ncells` cells from (cell, primitive) pairs, by a
+// counting sort: cell c lists primitives[start[c] .. start[c + 1]) in the
+// pairs' order (ascending ids when the pairs were made primitive by primitive).
+void pairs_to_csr(std::span<const std::pair<std::uint32_t, std::uint32_t>> pairs, std::uint32_t ncells,
+                  std::vector<std::uint32_t>& start, std::vector<std::uint32_t>& primitives) {
+  start.assign(std::size_t(ncells) + 1, 0);
+  for (const auto& pr : pairs) ++start[pr.first + 1];
+  for (std::uint32_t c = 0; c < ncells; ++c) start[c + 1] += start[c];
+  primitives.resize(pairs.size());
+  std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+  for (const auto& pr : pairs) primitives[fill[pr.first]++] = pr.second;
+}
+
 Grid build_uniform_grid(const Database& db, const GridParams& params) {
   Grid grid;
   GridInfo& info = grid.info;
@@ -235,6 +372,7 @@ Grid build_uniform_grid(const Database& db, const GridParams& params) {
   // Polled every 4096 primitives and every 4096 cells tested (one primitive
   // may span most of a large grid).
   std::size_t work = 0;
+  CellSpans spans;
   auto poll_stop = [&] {
     if (stop_requested())
       throw_if_stopped(fmt::format("building the grid ({} primitives, {}x{}x{} cells)", db.primitives.size(),
@@ -242,15 +380,10 @@ Grid build_uniform_grid(const Database& db, const GridParams& params) {
   };
   for (std::uint32_t pi = 0; pi < db.primitives.size(); ++pi) {
     if ((pi & 4095u) == 0) poll_stop();
-    for_each_overlapped_cell(info, eps, db.primitives[pi], work,
+    for_each_overlapped_cell(info, eps, db.primitives[pi], spans, work,
                              [&](int x, int y, int z) { pairs.emplace_back(info.cell_index(x, y, z), pi); }, poll_stop);
   }
-  grid.cell_start.assign(std::size_t(ncells) + 1, 0);
-  for (const auto& pr : pairs) ++grid.cell_start[pr.first + 1];
-  for (std::uint32_t c = 0; c < ncells; ++c) grid.cell_start[c + 1] += grid.cell_start[c];
-  grid.cell_primitives.resize(pairs.size());
-  std::vector<std::uint32_t> fill(grid.cell_start.begin(), grid.cell_start.end() - 1);
-  for (const auto& pr : pairs) grid.cell_primitives[fill[pr.first]++] = pr.second;
+  pairs_to_csr(pairs, ncells, grid.cell_start, grid.cell_primitives);
   compute_empty_distance(grid, params.skip_empty);
   return grid;
 }
@@ -300,6 +433,11 @@ void choose_adaptive_resolution(const Bounds3& box, double cells, int max_resolu
   }
 }
 
+// make_sub_grid's estimate of the cells a surface crosses per cell area (a
+// plane crosses |n_x| + |n_y| + |n_z| cells per cell area, 1.5 on average
+// over directions).
+constexpr double kSurfaceCellsPerArea = 1.5;
+
 class AdaptiveBuilder {
  public:
   AdaptiveBuilder(const Database& db, const GridParams& params, Grid& grid)
@@ -307,7 +445,7 @@ class AdaptiveBuilder {
 
   // Builds the grid `info` over `prims` (ascending ids) at `level`; returns
   // its index in grid.sub_grids.
-  std::uint32_t build(const GridInfo& info, const std::vector<std::uint32_t>& prims, std::uint32_t level) {
+  std::uint32_t build(const GridInfo& info, std::span<const std::uint32_t> prims, std::uint32_t level) {
     const auto index = std::uint32_t(grid_.sub_grids.size());
     const std::uint32_t ncells = info.cell_count();
     const auto first = std::uint32_t(grid_.cell_entries.size());
@@ -324,18 +462,11 @@ class AdaptiveBuilder {
     std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
     pairs.reserve(prims.size() * 2);
     for (const std::uint32_t pi : prims)
-      for_each_overlapped_cell(info, eps, db_.primitives[pi], work_,
+      for_each_overlapped_cell(info, eps, db_.primitives[pi], spans_, work_,
                                [&](int x, int y, int z) { pairs.emplace_back(info.cell_index(x, y, z), pi); }, poll);
     Grid local;
     local.info = info;
-    local.cell_start.assign(std::size_t(ncells) + 1, 0);
-    for (const auto& pr : pairs) ++local.cell_start[pr.first + 1];
-    for (std::uint32_t c = 0; c < ncells; ++c) local.cell_start[c + 1] += local.cell_start[c];
-    local.cell_primitives.resize(pairs.size());
-    {
-      std::vector<std::uint32_t> fill(local.cell_start.begin(), local.cell_start.end() - 1);
-      for (const auto& pr : pairs) local.cell_primitives[fill[pr.first]++] = pr.second;
-    }
+    pairs_to_csr(pairs, ncells, local.cell_start, local.cell_primitives);
     pairs = {};
     // A cell holding a sub-grid lists primitives, so it counts as non-empty.
     compute_empty_distance(local, params_.skip_empty);
@@ -363,8 +494,7 @@ class AdaptiveBuilder {
     }
     for (const auto& [c, sub] : children) {
       const std::uint32_t b = local.cell_start[c], e = local.cell_start[c + 1];
-      const std::vector<std::uint32_t> list(local.cell_primitives.begin() + b, local.cell_primitives.begin() + e);
-      const std::uint32_t child = build(sub, list, level + 1);
+      const std::uint32_t child = build(sub, std::span(local.cell_primitives).subspan(b, e - b), level + 1);
       grid_.cell_entries[first + c] = kSubGridEntry | child;
       if (level == 0) grid_.top_sub_grid_bits[c >> 6] |= std::uint64_t(1) << (c & 63);
     }
@@ -384,20 +514,36 @@ class AdaptiveBuilder {
     const double m = double(sub.cell_count());
     if (m < 2) return false;
     set_cell_size(sub);
-    // Expected references per sub-cell: each primitive covers about
-    // prod_a min(res_a, clipped extent_a / cell_a + 1) cells.
+    // Expected references: each primitive covers about prod_a min(res_a,
+    // clipped extent_a / cell_a + 1) sub-cells, a sphere at most the cells
+    // its surface inside the clipped box crosses (its whole surface
+    // 4 pi r^2 times the box's share of the sphere's box to the power 2/3,
+    // about 1.5 cells thick), not its whole box's.
+    const double cell_area = std::pow(double(sub.cell_size[0]) * sub.cell_size[1] * sub.cell_size[2], 2.0 / 3.0);
     double refs = 0;
     for (const std::uint32_t id : list) {
-      const Bounds3 pb = db_.primitives[id].bounds();
-      double k = 1;
+      const Primitive& p = db_.primitives[id];
+      const Bounds3 pb = p.bounds();
+      double k = 1, share = 1;
       for (int a = 0; a < 3; ++a) {
         const double lo = std::max(double(pb.lower[a]), double(sub.bounds.lower[a]));
         const double hi = std::min(double(pb.upper[a]), double(sub.bounds.upper[a]));
         k *= std::min(double(sub.res[a]), std::max(0.0, hi - lo) / sub.cell_size[a] + 1.0);
+        const double full = double(pb.upper[a]) - double(pb.lower[a]);
+        if (full > 0) share *= std::max(0.0, hi - lo) / full;
+      }
+      if (p.kind == PrimitiveKind::kSphere) {
+        const double r = double(p.radius());
+        const double area = 4.0 * std::numbers::pi * r * r * std::cbrt(share * share);
+        k = std::min(k, kSurfaceCellsPerArea * area / cell_area + 1.0);
       }
       refs += k;
     }
-    return refs / m <= kSubGridGain * n;
+    // A sub-cell lists at most kSubGridGain of the cell's primitives, and a
+    // ray crossing the sub-grid (about cbrt(m) cells) meets at most the n
+    // references it would meet in the leaf.
+    const double r = refs / m;
+    return r <= kSubGridGain * n && std::cbrt(m) * r <= n;
   }
 
   const Database& db_;
@@ -405,6 +551,7 @@ class AdaptiveBuilder {
   Grid& grid_;
   double mag_eps_;
   std::size_t work_ = 0;
+  CellSpans spans_;  // scratch of for_each_overlapped_cell
 };
 
 Grid build_adaptive_grid(const Database& db, const GridParams& params) {

@@ -42,16 +42,22 @@
 // tests, k ~ cbrt(m) cells of the m-cell sub-grid are crossed, and r is the
 // expected references per sub-cell, r = sum_i prod_a min(res_a,
 // e_ia / cell_a + 1) / m for primitive i's extent e_ia clipped to the cell
-// (a primitive as wide as the cell is listed in every sub-cell). Both
+// (a primitive as wide as the cell is listed in every sub-cell; a sphere in
+// at most the ~1.5 cells per cell area its surface inside the cell crosses,
+// 4 pi r^2 scaled by the clipped share of its box to the power 2/3). Both
 // resolutions follow Kalojanov's rule, cells = lambda * n with cubic-ish
 // cells: lambda_top = top_density (2) cells per primitive for the top grid,
 // lambda = density (2) per listed primitive for a sub-grid (at most
 // kMaxSubGridResolution per axis). A cell gets a sub-grid only where it
 // pays by the model: n >= sub_grid_min (128: a leaf's triangles are tested
 // 8 at a time in packed cells, so below it C_enter + k * C_step is not won
-// back; 32 made Tetra9 1.5-2x slower), at least two sub-cells, and r <= kSubGridGain * n (the
-// sub-grid separates the primitives; overlapping large primitives stay in
-// one leaf, so references cannot multiply level by level). The defaults
+// back; 32 made Tetra9 1.5-2x slower), at least two sub-cells, and
+// r <= kSubGridGain * n (the sub-grid separates the primitives;
+// overlapping large primitives stay in one leaf, so references cannot
+// multiply level by level), and k * r <= n with k = cbrt(m) (a ray meets no
+// more references in the sub-grid than in the leaf; without it, shells:5's
+// overlapping spheres grew 5,761 primitives into 2.45 M references in 45
+// sub-grids, 1.34 M in 14 now, at 0.95-1.0x the rays/s). The defaults
 // were chosen with `raynode bench accel` (docs/results.md, "Adaptive
 // grid"): a coarser top grid (lambda_top 1/16, n_min 8, Kalojanov's shape)
 // won a little more on a mesh in a stadium but cost 2-3x on the paper's
@@ -106,8 +112,8 @@ struct GridParams {
 
 /// Adaptive: the most cells of a sub-grid per axis.
 inline constexpr int kMaxSubGridResolution = 64;
-/// Adaptive: a cell gets a sub-grid only if a sub-cell is expected to list
-/// at most this fraction of the cell's primitives (cost model above).
+/// Adaptive: a cell gets a sub-grid only if a ray's expected tests in it
+/// are at most this fraction of the cell's primitives (cost model above).
 inline constexpr double kSubGridGain = 0.5;
 
 /// Cap of Grid::empty_distance (it is stored in a byte).
