@@ -625,7 +625,7 @@ template <class View>
 inline bool intersect_closest(const View& view, const Ray& ray, Hit& hit, TraversalScratch& scratch) {
   hit = Hit{};
   hit.t = ray.tmax;
-  const WatertightRay w(ray.direction);
+  const WatertightRay w(ray);
   scratch.mailbox.next_ray();
   ++scratch.stats.rays;
   bool found;
@@ -645,7 +645,7 @@ inline bool intersect_closest(const View& view, const Ray& ray, Hit& hit, Traver
 /// query. Stops at the first hit found.
 template <class View>
 inline bool intersect_any(const View& view, const Ray& ray, TraversalScratch& scratch) {
-  const WatertightRay w(ray.direction);
+  const WatertightRay w(ray);
   scratch.mailbox.next_ray();
   ++scratch.stats.rays;
   if (walks_sub_grids(view))
