@@ -27,6 +27,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <span>
 #include <vector>
 
@@ -148,7 +149,7 @@ template <int KX, int KY, int KZ>
   block_triangle(b, l, v0, v1, v2);
   if (u == 0.0f || v == 0.0f || e == 0.0f) [[unlikely]]
     return intersect_triangle_axes<KX, KY, KZ>(ray, w, v0, v1, v2, tmax, hit);
-  return finish_watertight(ray, u, v, e, mx, my, mz, w.sz * za, w.sz * zb, w.sz * zc, tmax, v0, v1, v2, hit);
+  return finish_watertight(ray, w, u, v, e, mx, my, mz, w.sz * za, w.sz * zb, w.sz * zc, tmax, v0, v1, v2, hit);
 }
 
 /// Lane by lane, the largest magnitude of three lanes' values (exact).
@@ -177,14 +178,19 @@ template <int KX, int KY, int KZ, bool kAny>
     BlockLanes bl;
     std::uint32_t bits = block_candidates<KX, KY, KZ>(b, o, w, bl);
     if (left < kBlockLanes) bits &= (1u << left) - 1;
-    if (!bits) continue;
-    const LaneF mx = max_abs_lanes(bl.x), my = max_abs_lanes(bl.y), mz = max_abs_lanes(bl.z);
+    if (!bits) [[likely]] continue;
+    // A candidate (rare): the lanes its finish reads, stored once here
+    // rather than with every block (a lane is read at a run-time index).
+    alignas(32) float f[9][kBlockLanes];
+    const LaneF keep[9] = {bl.u, bl.v, bl.e, max_abs_lanes(bl.x), max_abs_lanes(bl.y), max_abs_lanes(bl.z),
+                           bl.z[0], bl.z[1], bl.z[2]};
+    std::memcpy(f, keep, sizeof f);
     while (bits) {
       const std::uint32_t l = std::uint32_t(__builtin_ctz(bits));
       bits &= bits - 1;
       TriangleHit th;
-      if (!finish_lane<KX, KY, KZ>(ray, w, b, l, bl.u[l], bl.v[l], bl.e[l], mx[l], my[l], mz[l], bl.z[0][l],
-                                   bl.z[1][l], bl.z[2][l], hit_t, th))
+      if (!finish_lane<KX, KY, KZ>(ray, w, b, l, f[0][l], f[1][l], f[2][l], f[3][l], f[4][l], f[5][l], f[6][l],
+                                   f[7][l], f[8][l], hit_t, th))
         continue;
       hit_t = th.t;
       hit_u = th.u;

@@ -28,6 +28,15 @@ struct WatertightRay {
   int kx = 0, ky = 1, kz = 2;
   int permutation = 0;  ///< index of (kx, ky, kz) in kAxisPermutations
   float sx = 0, sy = 0, sz = 1;
+  /// The ray's largest |direction component| and kNearOrigin times its
+  /// largest |origin component| (see refine_unreliable_t), for the
+  /// finish's inline near-origin refusal; -inf when built from a direction
+  /// alone (the refusal is then left to refine_unreliable_t, which decides
+  /// alike on the same products).
+  float max_dir = 0, near_origin = -kInfinity;
+
+  /// From the ray: every field, the near-origin ones included.
+  explicit WatertightRay(const Ray& ray);
 
   explicit WatertightRay(const Vec3& dir) {
     const Vec3 a = abs(dir);
@@ -85,6 +94,11 @@ inline bool triangle_is_degenerate(const Vec3& v0, const Vec3& v1, const Vec3& v
 /// float spacings), within which a triangle hit whose float t is rounding
 /// noise counts as the surface the ray starts on (finish_watertight).
 inline constexpr float kNearOrigin = 0x1p-17f;
+
+inline WatertightRay::WatertightRay(const Ray& ray) : WatertightRay(ray.direction) {
+  max_dir = max_component(abs(ray.direction));
+  near_origin = kNearOrigin * max_component(abs(ray.origin));
+}
 
 /// The ray parameter where the ray's line crosses the triangle's plane,
 /// t = n.(v0 - o) / n.d with n = (v1 - v0) x (v2 - v0), all in double
@@ -177,8 +191,8 @@ namespace detail {
 /// the plane (triangle_plane_t) and the hit counts only if that t exceeds
 /// its own, far smaller, bound: an eye in a polygon's plane does not see it
 /// at t = 1e-7, and a 1e8 ground seen from 1e-2 away is hit where it is.
-[[gnu::always_inline]] inline bool finish_watertight(const Ray& ray, float u, float v, float e, float max_xt,
-                                                     float max_yt, float max_zr, float az, float bz, float cz,
+[[gnu::always_inline]] inline bool finish_watertight(const Ray& ray, const WatertightRay& w, float u, float v, float e,
+                                                     float max_xt, float max_yt, float max_zr, float az, float bz, float cz,
                                                      float tmax, const Vec3& v0, const Vec3& v1, const Vec3& v2,
                                                      TriangleHit& hit) {
   const float det = u + v + e;
@@ -188,6 +202,9 @@ namespace detail {
   float t = t_scaled * inv_det;
   const float t_err = triangle_t_error(t, inv_det, max_xt, max_yt, max_zr, az, bz, cz);
   if (!(t_err < 0.5f * std::fabs(t))) [[unlikely]] {
+    // refine_unreliable_t's first test on the ray's constants, inline: most
+    // unreliable candidates are the surface a secondary ray starts on.
+    if (t_err * w.max_dir <= w.near_origin) return false;
     if (!refine_unreliable_t(ray, t_err, v0, v1, v2, t)) return false;
   }
   if (!(t > ray.tmin && t < tmax)) return false;
@@ -230,7 +247,7 @@ template <int KX, int KY, int KZ>
     if ((u < 0.0f || v < 0.0f || e < 0.0f) && (u > 0.0f || v > 0.0f || e > 0.0f)) return false;
   }
   auto max_abs = [](float p, float q, float r) { return std::max(std::fabs(p), std::max(std::fabs(q), std::fabs(r))); };
-  return detail::finish_watertight(ray, u, v, e, max_abs(ax, bx, cx), max_abs(ay, by, cy),
+  return detail::finish_watertight(ray, w, u, v, e, max_abs(ax, bx, cx), max_abs(ay, by, cy),
                                    max_abs(axis<KZ>(a), axis<KZ>(b), axis<KZ>(c)), w.sz * axis<KZ>(a),
                                    w.sz * axis<KZ>(b), w.sz * axis<KZ>(c), tmax, v0, v1, v2, hit);
 }
@@ -296,7 +313,7 @@ template <int KX, int KY, int KZ>
   alignas(16) float uve[4], z[4];
   _mm_store_ps(uve, U);
   _mm_store_ps(z, _mm_mul_ps(sz, ckz));
-  return finish_watertight(ray, uve[0], uve[1], uve[2], max_abs(X), max_abs(Y), max_abs(ckz), z[0], z[1], z[2], tmax,
+  return finish_watertight(ray, w, uve[0], uve[1], uve[2], max_abs(X), max_abs(Y), max_abs(ckz), z[0], z[1], z[2], tmax,
                            Vec3{v[0], v[1], v[2]}, Vec3{v[3], v[4], v[5]}, Vec3{v[6], v[7], v[8]}, hit);
 }
 
