@@ -1,6 +1,7 @@
 // One render on the emulated machine as the experiment commands measure it:
-// `raynode bench nodes` and `raynode sweep nodes|cache|page-size` share the
-// options (NodeRunOptions, add_node_run_options), their parsing into a
+// `raynode render` (node modes), `raynode bench nodes` and `raynode sweep
+// nodes|cache|page-size` share the options (NodeRunOptions,
+// add_node_run_options), their parsing into a
 // NodeRunSpec, and run_node_mode, which renders one frame in replicated, svm
 // or dataflow mode and keeps the figures a table row needs (NodeRun).
 //
@@ -97,6 +98,7 @@ struct NodeRunOptionSet {
 
 /// The one declaration of the emulated machine's and the node modes'
 /// options, for every command that runs them (render, bench nodes, sweep):
+/// --machine (apps/machine_file.h; first, so that the others override it),
 /// --node-memory, --network, --network-scale, --topology, --work-item,
 /// --work-requests, --work-grants, --submaps, --subsample,
 /// --schedule-window, --mail-wakeups, --clock, --stall-timeout and, per
