@@ -471,17 +471,9 @@ template <class Visit>
 /// determinism and empty-space jumps. A leaf's t_exit is its own exit, so
 /// the closest-hit early exit keeps its meaning; visit's kStopWalk ends
 /// every level. The mailbox dedups primitives listed at several levels.
-/// kNested = false: walk_grid over the view's grid alone, for a caller that
-/// knows (walks_sub_grids) that no cell holds a sub-grid. The tracer's loops
-/// need both forms: the nested walk hands `visit` to an out-of-line call
-/// (walk_sub_grid), so the hit, counters and mailbox stamp it captures must
-/// live in memory across the whole walk; the flat walk keeps them in
-/// registers (teapot:8, uniform grid: 8% fewer instructions per ray).
-template <bool kNested = true, class View, class Visit>
+template <class View, class Visit>
 inline void walk_cells(const View& view, const Ray& ray, Visit&& visit) {
-  if constexpr (!kNested) {
-    // the view's grid alone, below
-  } else if constexpr (has_sub_grids<View>) {
+  if constexpr (has_sub_grids<View>) {
     const SubGridTables t = view.sub_grid_tables();
     if (!t.sub_grids.empty()) {
       // The top grid's walk is inlined here, so that its leaves are visited
@@ -516,23 +508,12 @@ inline void walk_cells(const View& view, const Ray& ray, Visit&& visit) {
   walk_grid(view.grid_info(), cell_order_of(view), ray, visit);
 }
 
-/// True when some cell of `view`'s grid holds a sub-grid (an adaptive grid
-/// that refined a cell), i.e. when walk_cells<true> nests; otherwise it
-/// walks the cells walk_cells<false> walks.
-template <class View>
-inline bool walks_sub_grids(const View& view) {
-  if constexpr (has_sub_grids<View>) return !view.sub_grid_tables().sub_grids.empty();
-  else if constexpr (has_paged_sub_grids<View>) return view.has_sub_grids();
-  else return false;
-}
-
 namespace detail {
 
 // The loops below keep the hit, the counters and the mailbox's stamp in
 // locals (written back once per ray): a store through `scratch` could alias
-// them and would force a reload per primitive. kNested: walk_cells<kNested>
-// (the caller picks it by walks_sub_grids).
-template <int KX, int KY, int KZ, bool kNested, class View>
+// them and would force a reload per primitive.
+template <int KX, int KY, int KZ, class View>
 [[gnu::flatten]] inline bool intersect_closest_axes(const View& view, const Ray& ray, const WatertightRay& w, Hit& hit_out,
                                    TraversalScratch& scratch) {
   TraversalStats stats;
@@ -540,7 +521,7 @@ template <int KX, int KY, int KZ, bool kNested, class View>
   Mailbox::Probe mailbox = scratch.mailbox.probe();
   Hit hit = hit_out;
   bool found = false;
-  walk_cells<kNested>(view, ray, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
+  walk_cells(view, ray, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
     ++stats.cells_visited;
     const auto listed = [&](std::uint32_t id) {
       if (mailbox.seen_or_insert(id)) {
@@ -573,7 +554,7 @@ template <int KX, int KY, int KZ, bool kNested, class View>
   return found;
 }
 
-template <int KX, int KY, int KZ, bool kNested, class View>
+template <int KX, int KY, int KZ, class View>
 [[gnu::flatten]] inline bool intersect_any_axes(const View& view, const Ray& ray, const WatertightRay& w, TraversalScratch& scratch) {
   TraversalStats stats;
   const TriangleRayLanes lanes(ray, w);
@@ -581,7 +562,7 @@ template <int KX, int KY, int KZ, bool kNested, class View>
   bool found = false;
   Hit hit;
   hit.t = ray.tmax;
-  walk_cells<kNested>(view, ray, [&](std::uint32_t cell, float) -> std::uint32_t {
+  walk_cells(view, ray, [&](std::uint32_t cell, float) -> std::uint32_t {
     ++stats.cells_visited;
     const auto listed = [&](std::uint32_t id) {
       if (found) return;
@@ -628,15 +609,9 @@ inline bool intersect_closest(const View& view, const Ray& ray, Hit& hit, Traver
   const WatertightRay w(ray);
   scratch.mailbox.next_ray();
   ++scratch.stats.rays;
-  bool found;
-  if (walks_sub_grids(view))
-    found = detail::with_axes(w, [&]<int KX, int KY, int KZ>() {
-      return detail::intersect_closest_axes<KX, KY, KZ, true>(view, ray, w, hit, scratch);
-    });
-  else
-    found = detail::with_axes(w, [&]<int KX, int KY, int KZ>() {
-      return detail::intersect_closest_axes<KX, KY, KZ, false>(view, ray, w, hit, scratch);
-    });
+  const bool found = detail::with_axes(w, [&]<int KX, int KY, int KZ>() {
+    return detail::intersect_closest_axes<KX, KY, KZ>(view, ray, w, hit, scratch);
+  });
   if (!found) hit = Hit{};
   return found;
 }
@@ -648,12 +623,8 @@ inline bool intersect_any(const View& view, const Ray& ray, TraversalScratch& sc
   const WatertightRay w(ray);
   scratch.mailbox.next_ray();
   ++scratch.stats.rays;
-  if (walks_sub_grids(view))
-    return detail::with_axes(w, [&]<int KX, int KY, int KZ>() {
-      return detail::intersect_any_axes<KX, KY, KZ, true>(view, ray, w, scratch);
-    });
   return detail::with_axes(w, [&]<int KX, int KY, int KZ>() {
-    return detail::intersect_any_axes<KX, KY, KZ, false>(view, ray, w, scratch);
+    return detail::intersect_any_axes<KX, KY, KZ>(view, ray, w, scratch);
   });
 }
 
