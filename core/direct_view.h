@@ -12,6 +12,7 @@
 #include "core/cell_blocks.h"
 #include "core/database.h"
 #include "core/grid.h"
+#include "core/traverse.h"
 
 namespace raynode::core {
 
@@ -101,5 +102,8 @@ class DirectView {
   DatabaseArrays a_;
   const Database* db_ = nullptr;
 };
+
+// The walks over DirectView are compiled once, in render.cpp.
+RAYNODE_TRAVERSAL_INSTANCES(extern, DirectView);
 
 }  // namespace raynode::core

@@ -33,4 +33,6 @@ RenderResult render(const Database& db, const Grid& grid, const RenderParams& pa
   return render_image(DirectView(db, grid), db, params);
 }
 
+RAYNODE_TRACER_INSTANCES(, DirectView);
+
 }  // namespace raynode::core

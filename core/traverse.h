@@ -603,7 +603,7 @@ template <int KX, int KY, int KZ, class View>
 /// within the current cell. Returns hit.found(). Precondition:
 /// is_valid_ray(ray) (callers reject NaN rays before).
 template <class View>
-inline bool intersect_closest(const View& view, const Ray& ray, Hit& hit, TraversalScratch& scratch) {
+bool intersect_closest(const View& view, const Ray& ray, Hit& hit, TraversalScratch& scratch) {
   hit = Hit{};
   hit.t = ray.tmax;
   const WatertightRay w(ray);
@@ -619,7 +619,7 @@ inline bool intersect_closest(const View& view, const Ray& ray, Hit& hit, Traver
 /// True if anything lies on `ray` in (ray.tmin, ray.tmax): the shadow-ray
 /// query. Stops at the first hit found.
 template <class View>
-inline bool intersect_any(const View& view, const Ray& ray, TraversalScratch& scratch) {
+bool intersect_any(const View& view, const Ray& ray, TraversalScratch& scratch) {
   const WatertightRay w(ray);
   scratch.mailbox.next_ray();
   ++scratch.stats.rays;
@@ -627,5 +627,14 @@ inline bool intersect_any(const View& view, const Ray& ray, TraversalScratch& sc
     return detail::intersect_any_axes<KX, KY, KZ>(view, ray, w, scratch);
   });
 }
+
+/// The traversal's entry points over one view type `V`, for explicit
+/// instantiation: `RAYNODE_TRAVERSAL_INSTANCES(extern, V)` after V is
+/// declared (inside namespace raynode::core) makes every includer call one
+/// compiled copy; `RAYNODE_TRAVERSAL_INSTANCES(, V)` in one .cpp compiles it.
+/// The walks behind them are most of the build's compile time.
+#define RAYNODE_TRAVERSAL_INSTANCES(EXTERN, V)                                                \
+  EXTERN template bool intersect_closest<V>(const V&, const Ray&, Hit&, TraversalScratch&); \
+  EXTERN template bool intersect_any<V>(const V&, const Ray&, TraversalScratch&)
 
 }  // namespace raynode::core

@@ -46,6 +46,7 @@
 #include "core/cell_blocks.h"
 #include "core/database.h"
 #include "core/grid.h"
+#include "core/render.h"
 #include "svm/pager.h"
 
 namespace raynode::svm {
@@ -205,3 +206,10 @@ class BrickedPagedView : public PagedView {
 };
 
 }  // namespace raynode::svm
+
+namespace raynode::core {
+// The tracer over both views is compiled once, in paged_view.cpp and
+// paged_view_bricked.cpp.
+RAYNODE_TRACER_INSTANCES(extern, svm::PagedView);
+RAYNODE_TRACER_INSTANCES(extern, svm::BrickedPagedView);
+}  // namespace raynode::core
