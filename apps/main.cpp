@@ -64,6 +64,35 @@ std::optional<std::string> unknown_command(CLI::App& app, int argc, char** argv)
   return std::nullopt;
 }
 
+/// For a command line with an option its command does not have (CLI11 says
+/// only "The following arguments were not expected"): the error line
+/// naming the command and each unknown option, with the nearest option of
+/// that command when one lies within two edits, or one for a name of up to
+/// four letters (`--widht` -> `--width`).
+std::optional<std::string> unknown_options(const CLI::App& app) {
+  const CLI::App* at = &app;  // the command that was parsed, deepest first
+  for (bool deeper = true; deeper;) {
+    deeper = false;
+    for (const CLI::App* c : at->get_subcommands()) at = c, deeper = true;
+  }
+  std::string line;
+  for (const std::string& arg : at->remaining(true)) {
+    if (arg.size() < 2 || arg[0] != '-' || (arg[1] >= '0' && arg[1] <= '9')) continue;  // a value, or a number
+    const std::string name = arg.substr(0, arg.find('='));
+    std::string nearest;
+    std::size_t best = name.size() > 6 ? 3 : 2;  // suggest within two edits, one for a short name
+    for (const CLI::Option* o : at->get_options())
+      for (const std::string& l : o->get_lnames())
+        if (const std::size_t d = edit_distance(name, "--" + l); d < best) best = d, nearest = "--" + l;
+    line += fmt::format("{}unknown option '{}'{}", line.empty() ? "" : "; ", name,
+                        nearest.empty() ? "" : fmt::format(" (did you mean '{}'?)", nearest));
+  }
+  if (line.empty()) return std::nullopt;
+  std::string path = at->get_name();
+  for (const CLI::App* p = at->get_parent(); p && p->get_parent(); p = p->get_parent()) path = p->get_name() + " " + path;
+  return fmt::format("{}: {}", path, line);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -98,8 +127,10 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
+    const std::optional<std::string> unknown =
+        e.get_exit_code() == int(CLI::ExitCodes::ExtrasError) ? unknown_options(app) : std::optional<std::string>();
     fmt::print(stderr, "raynode: error: {}\nRun 'raynode --help' (or 'raynode COMMAND --help') for usage.\n",
-               e.what());
+               unknown ? *unknown : std::string(e.what()));
     return 2;
   } catch (const core::ParseError& e) {
     fmt::print(stderr, "{}\n", e.what());

@@ -211,39 +211,37 @@ struct ShadingScratch {
   RenderStats stats;
 };
 
-/// Colour seen along `ray` (level `depth`, 1 = eye ray; `weight` = its
-/// contribution factor to the pixel). Counts the rays it casts (not `ray`
-/// itself: the caller counts that by kind). `first_hit`, when non-null,
-/// receives the distance, shading normal and shape index of the first hit
-/// (FirstHit's defaults on a miss). The database view may be any view of
-/// traverse.h, or one with its own intersect_closest / intersect_any
-/// overloads (embree_view.h). Owner thread of `scratch` only.
-template <class View>
-Vec3 trace_ray(const View& view, const ShadingContext& ctx, const Ray& ray, int depth, float weight,
-               ShadingScratch& scratch, FirstHit* first_hit = nullptr) {
-  // --timeout reaches inside a pixel, however deep its ray tree (core/stop.h).
-  throw_if_stopped("tracing rays");
-  RenderStats& st = scratch.stats;
-  Hit hit;
-  if (!intersect_closest(view, ray, hit, scratch.traversal)) {
-    if (first_hit) *first_hit = FirstHit{};
-    return ctx.background;
-  }
-  // A copy: a paged view may evict the page behind a returned reference on
-  // its next access (vertex normals, shadow rays), see traverse.h.
-  const Primitive prim = view.primitive(hit.primitive);
-  const Material& m = view.material(prim.material);
-  const SurfaceFrame f = surface_frame(view, prim, ray, hit);
+/// The ambient term of material `m`, unweighted: Ka * C * I_a with Ka = Kd.
+inline Vec3 ambient_term(const ShadingContext& ctx, const Material& m) {
+  return m.color * (m.kd * ctx.ambient_intensity);
+}
+
+/// A secondary ray that shading asks for (shade_hit).
+enum class ChildKind : std::uint8_t { kReflected, kRefracted };
+
+/// Whitted's terms at one hit (the model above), for every mode's tracer:
+/// trace_ray here casts the rays it asks for at once; dataflow sends them on
+/// as messages. `m` is the hit primitive's material, `f` its frame (from
+/// surface_frame), `depth` the level of the ray that hit (eye ray = 1) and
+/// `weight` its contribution factor; counts rays and skips into `st`.
+/// The ambient term (ambient_term) is the caller's; shade_hit calls, in this
+/// order:
+/// - `shadow(ray, light_term, highlight_skipped)` for each light the shading
+///   normal faces: `ray` runs from the hit to the light (tmax 1), and
+///   `light_term()` is the light's Lambert + Phong term, to add when nothing
+///   blocks `ray`; `highlight_skipped` says Ks > 0 but the highlight was off
+///   (counted by the caller, as skipped.highlight_marker, when unblocked);
+/// - `child(kind, ray, w)` for the reflected and the refracted ray, when
+///   depth and weight allow (w = weight x Ks or T); its colour is to be
+///   scaled by Ks (reflected) or T (refracted).
+template <class Shadow, class Child>
+void shade_hit(const ShadingContext& ctx, const Material& m, const SurfaceFrame& f, int depth, float weight,
+               RenderStats& st, Shadow&& shadow, Child&& child) {
   const Vec3& d = f.d;
   const Vec3& nf = f.nf;
   const Vec3& ns = f.ns;
-  const bool front = f.front;
-  if (first_hit) *first_hit = FirstHit{hit.t, ns, std::int64_t(prim.shape)};
   const Vec3& above = f.above;  // on the side the ray came from
-  const Vec3& below = f.below;
   const Vec3 v = -d;
-
-  Vec3 color = m.color * (m.kd * ctx.ambient_intensity);
 
   const bool highlight = m.ks > 0.0f && m.shine < kNoHighlightShine;
   for (const Light& light : ctx.lights) {
@@ -257,17 +255,16 @@ Vec3 trace_ray(const View& view, const ShadingContext& ctx, const Ray& ray, int 
       continue;
     }
     ++st.rays.shadow;
-    const Ray shadow{above, to_light, 0.0f, 1.0f};
-    if (intersect_any(view, shadow, scratch.traversal)) continue;
-    Vec3 c = m.color * (m.kd * ndotl);
-    if (highlight) {
-      const Vec3 r = ns * (2.0f * ndotl) - l;
-      const float rv = dot(r, v);
-      if (rv > 0.0f) c += Vec3{1.0f, 1.0f, 1.0f} * (m.ks * std::pow(rv, m.shine));
-    } else if (m.ks > 0.0f) {
-      ++st.skipped.highlight_marker;
-    }
-    color += c * light.color * ctx.light_intensity;
+    auto light_term = [&] {
+      Vec3 c = m.color * (m.kd * ndotl);
+      if (highlight) {
+        const Vec3 r = ns * (2.0f * ndotl) - l;
+        const float rv = dot(r, v);
+        if (rv > 0.0f) c += Vec3{1.0f, 1.0f, 1.0f} * (m.ks * std::pow(rv, m.shine));
+      }
+      return c * light.color * ctx.light_intensity;
+    };
+    shadow(Ray{above, to_light, 0.0f, 1.0f}, light_term, !highlight && m.ks > 0.0f);
   }
 
   // May a child ray of weight w be cast? Counts the skip reason otherwise.
@@ -296,7 +293,7 @@ Vec3 trace_ray(const View& view, const ShadingContext& ctx, const Ray& ray, int 
       const Ray r{above, reflect_dir(), 0.0f, kInfinity};
       if (is_valid_ray(r)) {
         ++st.rays.reflected;
-        color += trace_ray(view, ctx, r, depth + 1, w, scratch) * m.ks;
+        child(ChildKind::kReflected, r, w);
       }
     }
   } else {
@@ -307,20 +304,57 @@ Vec3 trace_ray(const View& view, const ShadingContext& ctx, const Ray& ray, int 
     const float w = weight * m.transmittance;
     if (may_spawn(w)) {
       const float ior = m.ior > 0.0f ? m.ior : 1.0f;
-      const float eta = front ? 1.0f / ior : ior;  // n_from / n_to
+      const float eta = f.front ? 1.0f / ior : ior;  // n_from / n_to
       Vec3 dir;
       const bool tir = !refract(d, ns, eta, dir);
       if (tir) dir = reflect_dir();  // total internal reflection
-      const Ray r{dot(dir, nf) > 0.0f ? above : below, dir, 0.0f, kInfinity};
+      const Ray r{dot(dir, nf) > 0.0f ? above : f.below, dir, 0.0f, kInfinity};
       if (is_valid_ray(r)) {
         ++st.rays.refracted;
         if (tir) ++st.rays.refracted_tir;
-        color += trace_ray(view, ctx, r, depth + 1, w, scratch) * m.transmittance;
+        child(ChildKind::kRefracted, r, w);
       }
     }
   } else {
     ++st.skipped.refraction_t0;
   }
+}
+
+/// Colour seen along `ray` (level `depth`, 1 = eye ray; `weight` = its
+/// contribution factor to the pixel). Counts the rays it casts (not `ray`
+/// itself: the caller counts that by kind). `first_hit`, when non-null,
+/// receives the distance, shading normal and shape index of the first hit
+/// (FirstHit's defaults on a miss). The database view may be any view of
+/// traverse.h, or one with its own intersect_closest / intersect_any
+/// overloads (embree_view.h). Owner thread of `scratch` only.
+template <class View>
+Vec3 trace_ray(const View& view, const ShadingContext& ctx, const Ray& ray, int depth, float weight,
+               ShadingScratch& scratch, FirstHit* first_hit = nullptr) {
+  // --timeout reaches inside a pixel, however deep its ray tree (core/stop.h).
+  throw_if_stopped("tracing rays");
+  Hit hit;
+  if (!intersect_closest(view, ray, hit, scratch.traversal)) {
+    if (first_hit) *first_hit = FirstHit{};
+    return ctx.background;
+  }
+  // A copy: a paged view may evict the page behind a returned reference on
+  // its next access (vertex normals, shadow rays), see traverse.h.
+  const Primitive prim = view.primitive(hit.primitive);
+  const Material& m = view.material(prim.material);
+  const SurfaceFrame f = surface_frame(view, prim, ray, hit);
+  if (first_hit) *first_hit = FirstHit{hit.t, f.ns, std::int64_t(prim.shape)};
+  Vec3 color = ambient_term(ctx, m);
+  shade_hit(
+      ctx, m, f, depth, weight, scratch.stats,
+      [&](const Ray& shadow, auto&& light_term, bool highlight_skipped) {
+        if (intersect_any(view, shadow, scratch.traversal)) return;
+        if (highlight_skipped) ++scratch.stats.skipped.highlight_marker;
+        color += light_term();
+      },
+      [&](ChildKind kind, const Ray& r, float w) {
+        color += trace_ray(view, ctx, r, depth + 1, w, scratch) *
+                 (kind == ChildKind::kReflected ? m.ks : m.transmittance);
+      });
   return color;
 }
 

@@ -10,15 +10,15 @@
 //   or adaptive: top grid, sub-grids and their tables), the kd-tree of
 //   regions and its own primary rays (those entering the scene in its
 //   region).
-//   node: traces a ray inside its region (RegionView + core traversal); a hit
-//   there is shaded with core's formula (surface_frame with its spawn origins, refract,
-//   the Whitted terms of core::trace_ray) and its shadow, reflected and
-//   refracted rays go on; a ray leaving the region is sent to the owner of
+//   node (node_tracer.h): traces a ray inside its region (RegionView + core
+//   traversal); a hit there is shaded by core's shading (surface_frame,
+//   core::shade_hit, the same code as core::trace_ray) and its shadow,
+//   reflected and refracted rays go on; a ray leaving the region is sent to the owner of
 //   the next region along it (a RayMsg with pixel id and path weight);
 //   ambient, light and background terms go to the host as contributions.
 //   Rays received take priority over the node's own primary rays; a ray's
 //   local descendants are finished (depth first) before the next message.
-//   Deadlock avoidance (the paper's "optimistic" strategy): a ray whose
+//   host (host.h): Deadlock avoidance (the paper's "optimistic" strategy): a ray whose
 //   destination mailbox is full goes to the host, which keeps it (unbounded
 //   host memory) and forwards it as soon as the mailbox has room.
 //   Termination: Mattern's four-counter method with waves: the host probes

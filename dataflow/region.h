@@ -22,7 +22,7 @@
 // passed on as the t_enter of the next, so the intervals of one ray never
 // overlap and never leave a gap, whatever rounding does. A point exactly on
 // a cut belongs to the side the ray moves to (the upper side when the ray is
-// parallel to the cut). Hits are accepted by t (dataflow.cpp), never by a
+// parallel to the cut). Hits are accepted by t (node_tracer.cpp), never by a
 // point-in-region test, so each hit is taken by exactly one region.
 //
 // Regions are numbered in the kd-tree's left-to-right order; region i is

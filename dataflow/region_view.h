@@ -12,7 +12,7 @@
 // Choices:
 // * A primitive overlapping several regions is copied into each (the
 //   paper's "shared objects"); a hit is accepted only inside the ray's
-//   [t_enter, t_exit) interval of the region (dataflow.cpp), so the closest
+//   [t_enter, t_exit) interval of the region (node_tracer.cpp), so the closest
 //   hit is the sequential one. Tests of shared primitives are counted (an
 //   upper bound of the paper's "repeated intersections").
 // * Overlap is conservative: the 2D bounding box of the primitive's
