@@ -10,6 +10,7 @@
 #include "core/camera.h"
 #include "core/direct_view.h"
 #include "core/shade.h"
+#include "nodes/image_frame.h"
 #include "nodes/pixel_record.h"
 
 namespace raynode::nodes {
@@ -64,14 +65,7 @@ std::size_t replicated_bytes_per_node(const core::Database& db, const core::Grid
 
 ReplicatedResult render_replicated(const core::Database& db, const core::Grid& grid, const ReplicatedParams& params) {
   const core::RenderParams& rp = params.render;
-  if (rp.spp < 1) throw std::invalid_argument("spp must be >= 1");
-  if (rp.max_depth < 1) throw std::invalid_argument("max depth must be >= 1");
-  if (params.item_w < 1 || params.item_h < 1)
-    throw std::invalid_argument(fmt::format("work item must be at least 1x1, got {}x{}", params.item_w, params.item_h));
-  const core::View cam_view = core::render_view(db);
-  const int w = rp.width > 0 ? rp.width : cam_view.width;
-  const int h = rp.height > 0 ? rp.height : cam_view.height;
-  const core::Camera camera(cam_view, w, h);
+  const ImageFrame frame = image_frame(db, rp, params.item_w, params.item_h);
   const PixelLayout layout(rp);
 
   MachineParams mp = params.machine;
@@ -82,7 +76,7 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
   // Fail early, with the sizes, when a copy cannot fit beside the mailbox.
   const core::DatabaseArrays host_arrays = core::DatabaseArrays::of(db, grid);
   const std::size_t copy_bytes = replicated_bytes_per_node(db, grid);
-  const SubmapPlan plan = plan_submaps(db, grid, camera, rp, m.nodes, params.submaps, m.cost_model);
+  const SubmapPlan plan = plan_submaps(db, grid, frame.camera, rp, m.nodes, params.submaps, m.cost_model);
   const std::vector<Rect>& submaps = plan.rects;
   const std::size_t fixed = Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload + PixelBatch::bytes(m.max_payload) +
                             sizeof(core::ShadingScratch) + work_farm_bytes(m.work_grant, submaps, params.item_w, params.item_h);
@@ -96,18 +90,15 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
   ReplicatedResult out;
   out.database_bytes = copy_bytes;
   out.submaps = plan;
-  out.render.color = core::Image(w, h, 3);
-  if (rp.depth_aov) out.render.depth = core::Image(w, h, 1);
-  if (rp.normal_aov) out.render.normal = core::Image(w, h, 3);
-  if (rp.primitive_aov) out.render.primitive = core::Image(w, h, 1);
-  if (params.node_aov) out.node = core::Image(w, h, 1);
+  core::Image* const extra[] = {&out.node};
+  size_images(out.render, rp, frame, std::span<core::Image* const>(extra, params.node_aov ? 1 : 0));
 
   std::vector<std::unique_ptr<NodeState>> states(m.nodes);
 
   // The host loads each node's memory: the load phase, outside virtual time.
   auto setup = [&](NodeContext& ctx) {
     Arena& a = ctx.arena();
-    auto s = std::make_unique<NodeState>(grid.info, camera, db.background, rp, submaps[ctx.id()]);
+    auto s = std::make_unique<NodeState>(grid.info, frame.camera, db.background, rp, submaps[ctx.id()]);
     s->arena = &a;
     s->primitives = copy_to_arena(a, host_arrays.primitives, "the database copy (primitives)");
     s->vertex_normals = copy_to_arena(a, host_arrays.vertex_normals, "the database copy (vertex normals)");
@@ -124,7 +115,6 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
     s->cost_model = m.cost_model;
     states[ctx.id()] = std::move(s);
   };
-  auto teardown = [&](NodeContext& ctx) { states[ctx.id()].reset(); };
 
   auto node_main = [&](NodeContext& ctx) {
     NodeState& s = *states[ctx.id()];
@@ -133,42 +123,16 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
     mine.sub_grids = s.sub_grids.span();
     mine.cell_entries = s.cell_entries.span();
     mine.top_sub_grid_bits = s.top_sub_grid_bits.span();
-    const core::DirectView view(mine);
     const core::ShadingContext shading = core::make_shading_context(
         std::span<const core::Light>(s.lights.span()), s.background, s.render.max_depth, s.render.min_weight);
-    core::ShadingScratch& scratch = *s.scratch;
-    const bool first = s.render.any_aov();
     ctx.set_work_meter(&NodeState::work_seconds, &s);
-    s.work = run_work_farm(ctx, s.submap, params.item_w, params.item_h,
-                           [&](NodeContext& c, const Rect& r) {
-                             float* o = s.batch.add(c, r, layout.channels);
-                             for (int y = r.y0; y < r.y1; ++y)
-                               for (int x = r.x0; x < r.x1; ++x) {
-                                 const core::PixelResult px =
-                                     core::render_pixel(view, shading, s.camera, x, y, s.render.spp, first, scratch);
-                                 layout.pack(px, o);
-                                 o += layout.channels;
-                               }
-                           },
-                           {}, &s.batch);
-    s.stats = scratch.stats;
-    s.stats.traversal = scratch.traversal.stats;
+    const PixelJob job{shading, s.camera, s.render.spp, s.render.any_aov(), layout, *s.scratch, s.batch};
+    s.work = render_items(ctx, s.submap, params.item_w, params.item_h, core::DirectView(mine), job);
+    s.stats = s.scratch->stats;
+    s.stats.traversal = s.scratch->traversal.stats;
   };
 
-  auto host_main = [&](NodeContext& host) {
-    gather_pixels(host, [&](NodeId src, const Rect& r, std::uint32_t ch, std::span<const float> px) {
-      if (ch != layout.channels) throw std::logic_error("host: pixel message with the wrong channel count");
-      if (params.render.progress)  // the progress line counts the pixels the host has received
-        params.render.progress->fetch_add(std::uint64_t(r.x1 - r.x0) * std::uint64_t(r.y1 - r.y0),
-                                          std::memory_order_relaxed);
-      const float* p = px.data();
-      for (int y = r.y0; y < r.y1; ++y)
-        for (int x = r.x0; x < r.x1; ++x, p += ch) {
-          layout.unpack(p, x, y, out.render);
-          if (params.node_aov) *out.node.at(x, y) = float(src);
-        }
-    });
-  };
+  auto host_main = [&](NodeContext& host) { assemble_pixels(host, layout, out.render, out.node, rp.progress); };
 
   out.tracing.resize(m.nodes);
   out.work.resize(m.nodes);
@@ -178,7 +142,7 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
       out.tracing[ctx.id()] = states[ctx.id()]->stats;
       out.work[ctx.id()] = states[ctx.id()]->work;
     }
-    teardown(ctx);
+    states[ctx.id()].reset();
   });
   for (const core::RenderStats& s : out.tracing) out.render.stats += s;
   return out;

@@ -11,6 +11,7 @@
 
 #include "core/camera.h"
 #include "core/shade.h"
+#include "nodes/image_frame.h"
 #include "nodes/pixel_record.h"
 #include "svm/paged_view.h"
 
@@ -136,16 +137,9 @@ std::uint32_t cache_frames_for(const PageLayout& layout, const SvmParams& params
 
 SvmResult render_svm(const core::Database& db, const core::Grid& grid, const SvmParams& params) {
   const core::RenderParams& rp = params.render;
-  if (rp.spp < 1) throw std::invalid_argument("spp must be >= 1");
-  if (rp.max_depth < 1) throw std::invalid_argument("max depth must be >= 1");
-  if (params.item_w < 1 || params.item_h < 1)
-    throw std::invalid_argument(fmt::format("work item must be at least 1x1, got {}x{}", params.item_w, params.item_h));
+  const nodes::ImageFrame frame = nodes::image_frame(db, rp, params.item_w, params.item_h);
   if (!(params.cache_fraction >= 0 && params.cache_fraction <= 1))
     throw std::invalid_argument(fmt::format("cache fraction must be in (0, 1], got {}", params.cache_fraction));
-
-  const core::View cam_view = core::render_view(db);
-  const int w = rp.width > 0 ? rp.width : cam_view.width;
-  const int h = rp.height > 0 ? rp.height : cam_view.height;
 
   // The host lays the database out in pages. From here on the run sees only
   // the image and the O(1) metadata (RunInput), never `db` or `grid` (the
@@ -158,7 +152,7 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
     const core::CellBlocks blocks = core::build_cell_blocks(db, grid, params.pack_min);
     return build_paged_image(db, grid, params.page_size, &blocks, order);
   }();
-  const RunInput in{&image, grid.info, db.materials, db.lights, db.background, core::Camera(cam_view, w, h)};
+  const RunInput in{&image, grid.info, db.materials, db.lights, db.background, frame.camera};
   const PageLayout& layout = image.layout;
 
   nodes::PixelLayout pixel_layout(rp);
@@ -187,12 +181,10 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
   sized.machine = m;
   for (std::uint32_t i = 0; i < m.nodes; ++i) cache[i] = cache_frames_for(layout, sized, i, out.node_fixed_bytes);
 
-  out.render.color = core::Image(w, h, 3);
-  if (rp.depth_aov) out.render.depth = core::Image(w, h, 1);
-  if (rp.normal_aov) out.render.normal = core::Image(w, h, 3);
-  if (rp.primitive_aov) out.render.primitive = core::Image(w, h, 1);
-  if (params.node_aov) out.node = core::Image(w, h, 1);
-  if (params.pages_aov) out.pages = core::Image(w, h, 1);
+  std::vector<core::Image*> extra;
+  if (params.node_aov) extra.push_back(&out.node);
+  if (params.pages_aov) extra.push_back(&out.pages);
+  nodes::size_images(out.render, rp, frame, extra);
 
   std::vector<std::unique_ptr<NodeState>> states(m.nodes);
   HostPages& host_pages = image.pages;
@@ -232,50 +224,36 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
     }
     const core::ShadingContext shading = core::make_shading_context(
         std::span<const core::Light>(s.lights.span()), s.background, s.render.max_depth, s.render.min_weight);
-    core::ShadingScratch& scratch = *s.scratch;
-    const bool first = s.render.any_aov();
     ctx.set_work_meter(&NodeState::work_seconds, &s);
+    const nodes::PixelJob job{shading, s.camera, s.render.spp, s.render.any_aov(), pixel_layout, *s.scratch, s.batch};
+    // The pages each pixel touched (--aov pages), and the pager's end of a work item.
+    struct Hooks {
+      Pager& pager;
+      int pages_channel;
+      void begin_pixel() { pager.begin_pixel(); }
+      void after_pixel(float* o) {
+        if (pages_channel >= 0) o[pages_channel] = float(pager.pixel_pages());
+      }
+      void end_item() { pager.end_pixel(); }
+    };
+    const nodes::OtherMessageHandler serve = [&](NodeContext&, const nodes::Message& msg) { return pager.serve(msg); };
     // The work farm over this node's view (linear or bricked directory).
     auto farm = [&](const auto& view) {
-      return nodes::run_work_farm(
-          ctx, s.submap, params.item_w, params.item_h,
-          [&](NodeContext& c, const Rect& r) {
-            float* o = s.batch.add(c, r, pixel_layout.channels);
-            for (int y = r.y0; y < r.y1; ++y)
-              for (int x = r.x0; x < r.x1; ++x) {
-                pager.begin_pixel();
-                const core::PixelResult px =
-                    core::render_pixel(view, shading, s.camera, x, y, s.render.spp, first, scratch);
-                pixel_layout.pack(px, o);
-                if (pages_channel >= 0) o[pages_channel] = float(pager.pixel_pages());
-                o += pixel_layout.channels;
-              }
-            pager.end_pixel();
-          },
-          [&](NodeContext&, const nodes::Message& msg) { return pager.serve(msg); }, &s.batch);
+      return nodes::render_items(ctx, s.submap, params.item_w, params.item_h, view, job, Hooks{pager, pages_channel},
+                                 serve);
     };
     s.work = layout.directory_order == DirectoryOrder::kBricked
                  ? farm(BrickedPagedView(pager, s.grid, s.materials.span(), s.cell_order))
                  : farm(PagedView(pager, s.grid, s.materials.span()));
-    s.stats = scratch.stats;
-    s.stats.traversal = scratch.traversal.stats;
+    s.stats = s.scratch->stats;
+    s.stats.traversal = s.scratch->traversal.stats;
     s.pager_stats = pager.stats();
   };
 
   auto host_main = [&](NodeContext& host) {
-    nodes::gather_pixels(host, [&](nodes::NodeId src, const Rect& r, std::uint32_t ch, std::span<const float> px) {
-      if (ch != pixel_layout.channels) throw std::logic_error("host: pixel message with the wrong channel count");
-      if (params.render.progress)  // the progress line counts the pixels the host has received
-        params.render.progress->fetch_add(std::uint64_t(r.x1 - r.x0) * std::uint64_t(r.y1 - r.y0),
-                                          std::memory_order_relaxed);
-      const float* p = px.data();
-      for (int y = r.y0; y < r.y1; ++y)
-        for (int x = r.x0; x < r.x1; ++x, p += ch) {
-          pixel_layout.unpack(p, x, y, out.render);
-          if (params.node_aov) *out.node.at(x, y) = float(src);
-          if (pages_channel >= 0) *out.pages.at(x, y) = p[pages_channel];
-        }
-    });
+    const nodes::ExtraChannel pages[] = {{pages_channel, &out.pages}};
+    nodes::assemble_pixels(host, pixel_layout, out.render, out.node, rp.progress,
+                           std::span<const nodes::ExtraChannel>(pages, pages_channel >= 0 ? 1 : 0));
   };
 
   out.tracing.resize(m.nodes);
