@@ -34,11 +34,11 @@
 #include "core/database.h"
 #include "core/direct_view.h"
 #include "core/embree_scene.h"
-#include "core/embree_view.h"
 #include "core/grid.h"
 #include "core/render.h"
 #include "core/scene_source.h"
 #include "dataflow/dataflow.h"
+#include "modes/modes.h"
 #include "imageio/false_color.h"
 #include "imageio/write_image.h"
 #include "nodes/machine.h"
@@ -72,8 +72,6 @@ struct RenderOptions {
   /// command declares once (add_node_run_options); in-process modes refuse them.
   NodeRunOptions run;
 };
-
-bool is_node_mode(const std::string& mode) { return mode == "replicated" || mode == "svm" || mode == "dataflow"; }
 
 /// The node modes' spec from the options (the network calibrated here, once),
 /// with the machine's node count and --timeout left to the process's
@@ -145,105 +143,95 @@ Accelerator build_accelerator(const RenderOptions& o, const core::Database& db) 
     a.embree = std::make_unique<core::EmbreeScene>(db);
   } else {
     a.grid = core::build_grid(db, gp);
-    if (o.pack_min > 0 && !is_node_mode(o.mode)) a.blocks = core::build_cell_blocks(db, *a.grid, o.pack_min);
+    if (o.pack_min > 0 && !modes::is_node_mode(modes::parse_mode(o.mode))) a.blocks = core::build_cell_blocks(db, *a.grid, o.pack_min);
   }
   a.build_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return a;
 }
 
-/// The one mode dispatch: renders `db` through `accel` in mode `o.mode`
-/// with `params` (its mode field is set here). Every mode returns the same
-/// RenderResult (colour, AOVs, counters summed over threads or nodes).
-/// sequential and shared run core::render_image in this process; the node
-/// modes (replicated, svm, dataflow: --nodes N) get one branch each here.
-/// Throws UsageError for a mode/--nodes combination that makes no sense.
-core::RenderResult render_frame(const RenderOptions& o, const core::Database& db, const Accelerator& accel,
-                                core::RenderParams params, bool node_aov, bool pages_aov, FrameExtras& extras) {
-  if (is_node_mode(o.mode) && accel.embree)
+/// The request for `o`'s mode (modes/modes.h) with `params`, after the
+/// checks that name the options: throws UsageError for a mode and option
+/// combination that makes no sense.
+modes::RunRequest render_request(const RenderOptions& o, const Accelerator& accel, const core::RenderParams& params,
+                                 bool node_aov, bool pages_aov) {
+  modes::RunRequest req;
+  try {
+    req.mode = modes::parse_mode(o.mode);
+  } catch (const std::invalid_argument&) {
+    throw UsageError("unknown render mode '" + o.mode + "'");
+  }
+  const bool node_mode = modes::is_node_mode(req.mode);
+  if (node_mode && accel.embree)
     throw UsageError("--accel embree is for the in-process modes; --mode " + o.mode + " traces with the grid");
-  if (node_aov && !is_node_mode(o.mode))
+  if (node_aov && !node_mode)
     throw UsageError("--aov node needs a node-emulator mode (--mode replicated, svm or dataflow), not --mode " +
                      o.mode);
   if (pages_aov && o.mode != "svm") throw UsageError("--aov pages needs --mode svm");
-  const bool region_aov = std::find(o.aovs.begin(), o.aovs.end(), "region") != o.aovs.end();
-  if (region_aov && o.mode != "dataflow") throw UsageError("--aov region needs --mode dataflow");
+  req.region_aov = std::find(o.aovs.begin(), o.aovs.end(), "region") != o.aovs.end();
+  if (req.region_aov && o.mode != "dataflow") throw UsageError("--aov region needs --mode dataflow");
   if (o.pack_given && o.pack_min > 0 && (o.mode == "replicated" || o.mode == "dataflow"))
     throw UsageError("--pack-cells " + std::to_string(o.pack_min) + " is for --mode sequential, shared or svm; --mode " +
                      o.mode + " walks the paper's object lists (leave --pack-cells out)");
-  if (o.mode == "dataflow") {
-    const NodeRunSpec spec = node_spec(o);
-    dataflow::DataflowParams dp;
-    dp.render = params;
-    dp.machine = spec.machine;
-    dp.machine.mailbox_capacity = spec.queue_capacity;
-    dp.subsample = spec.subsample;
-    dp.partition = spec.partition;
-    dp.region_aov = region_aov || node_aov;
-    dp.grid.kind = grid_kind_for(o.grid);  // each region's local grid: --grid's kind, as the host's
-    dataflow::DataflowResult r = dataflow::render_dataflow(db, *accel.grid, dp);
-    extras.nodes = r.run.to_json(true);
+  if (!node_mode && o.nodes != 1)
+    throw UsageError(fmt::format("--nodes {} needs a node-emulator mode; --mode {} runs in this process", o.nodes,
+                                 o.mode));
+  req.render = params;
+  req.node_aov = node_aov;
+  req.pages_aov = pages_aov;
+  req.embree = accel.embree.get();
+  req.blocks = accel.blocks ? &*accel.blocks : nullptr;
+  if (node_mode) {
+    req.nodes = node_spec(o);
+    req.nodes.pack_min = o.pack_given ? o.pack_min : 0;  // svm pages the paper's object lists unless asked
+  }
+  return req;
+}
+
+/// The --stats objects of a node-mode run `r` of `nodes` nodes (nothing for the in-process modes).
+void node_mode_json(const modes::RunResult& r, int nodes, FrameExtras& extras) {
+  const nodes::RunReport* run = r.run();
+  if (!run) return;
+  extras.nodes = run->to_json(true);
+  if (r.replicated) {
+    extras.nodes["submaps"] = r.replicated->submaps.to_json();
+    extras.nodes["database_bytes_per_node"] = r.replicated->database_bytes;
+  }
+  if (r.svm) {
+    extras.nodes["submaps"] = r.svm->submaps.to_json();
+    extras.svm = r.svm->to_json();
+  }
+  if (r.work()) {
+    fill_work_stats(*r.work(), *r.tracing(), *run, nodes, extras.nodes);
+  } else {
     double busy = 0;
-    for (const nodes::NodeReport& n : r.run.nodes) busy += n.counters.busy_s;
+    for (const nodes::NodeReport& n : run->nodes) busy += n.counters.busy_s;
     extras.nodes["work_s"] = busy;
     extras.nodes["efficiency_estimate"] =
-        r.run.parallel_time_s > 0 ? busy / (double(o.nodes) * r.run.parallel_time_s) : 0.0;
-    extras.dataflow = r.to_json();
-    if (node_aov) extras.node = r.region;  // region i belongs to node i
-    if (region_aov) extras.region = std::move(r.region);
-    if (params.progress) params.progress->store(std::uint64_t(r.render.color.width) * r.render.color.height);
-    return std::move(r.render);
+        run->parallel_time_s > 0 ? busy / (double(nodes) * run->parallel_time_s) : 0.0;
   }
-  if (o.mode == "replicated") {
-    const NodeRunSpec spec = node_spec(o);
-    nodes::ReplicatedParams rp;
-    rp.render = params;
-    rp.machine = spec.machine;
-    rp.item_w = spec.item_w, rp.item_h = spec.item_h;
-    rp.submaps = spec.submaps;
-    rp.node_aov = node_aov;
-    nodes::ReplicatedResult r = nodes::render_replicated(db, *accel.grid, rp);
-    extras.nodes = r.run.to_json(true);
-    extras.nodes["submaps"] = r.submaps.to_json();
-    extras.nodes["database_bytes_per_node"] = r.database_bytes;
-    fill_work_stats(r.work, r.tracing, r.run, o.nodes, extras.nodes);
-    extras.node = std::move(r.node);
-    if (params.progress) params.progress->store(std::uint64_t(r.render.color.width) * r.render.color.height);
-    return std::move(r.render);
-  }
-  if (o.mode == "svm") {
-    const NodeRunSpec spec = node_spec(o);
-    svm::SvmParams sp;
-    sp.render = params;
-    sp.machine = spec.machine;
-    sp.item_w = spec.item_w, sp.item_h = spec.item_h;
-    sp.page_size = spec.page_size;
-    sp.directory_order = spec.directory_order;
-    sp.pack_min = o.pack_given ? o.pack_min : 0;  // svm pages the paper's object lists unless asked
-    sp.cache_pages = spec.cache_pages;
-    sp.cache_fraction = spec.cache_fraction;
-    sp.submaps = spec.submaps;
-    sp.node_aov = node_aov;
-    sp.pages_aov = pages_aov;
-    svm::SvmResult r = svm::render_svm(db, *accel.grid, sp);
-    extras.nodes = r.run.to_json(true);
-    extras.nodes["submaps"] = r.submaps.to_json();
-    fill_work_stats(r.work, r.tracing, r.run, o.nodes, extras.nodes);
-    extras.svm = r.to_json();
-    extras.node = std::move(r.node);
-    extras.pages = std::move(r.pages);
-    if (params.progress) params.progress->store(std::uint64_t(r.render.color.width) * r.render.color.height);
-    return std::move(r.render);
-  }
-  if (o.mode == "sequential" || o.mode == "shared") {
-    if (o.nodes != 1)
-      throw UsageError(fmt::format("--nodes {} needs a node-emulator mode; --mode {} runs in this process",
-                                   o.nodes, o.mode));
-    params.mode = core::parse_render_mode(o.mode);
-    if (accel.embree) return core::render_image(core::EmbreeView(db, *accel.embree), db, params);
-    return core::render_image(core::DirectView(db, *accel.grid, accel.blocks ? &*accel.blocks : nullptr), db,
-                              params);
-  }
-  throw UsageError("unknown render mode '" + o.mode + "'");
+  if (r.dataflow) extras.dataflow = r.dataflow->to_json();
+}
+
+/// Renders `db` through `accel` in mode `o.mode` with `params`
+/// (modes::render), and fills `extras` with the node modes' AOVs and
+/// --stats objects. Throws UsageError for a mode/option combination that
+/// makes no sense.
+core::RenderResult render_frame(const RenderOptions& o, const core::Database& db, const Accelerator& accel,
+                                const core::RenderParams& params, bool node_aov, bool pages_aov, FrameExtras& extras) {
+  const modes::RunRequest req = render_request(o, accel, params, node_aov, pages_aov);
+  modes::RunResult r = [&] {
+    try {
+      return modes::render(db, accel.grid ? &*accel.grid : nullptr, req);
+    } catch (const std::invalid_argument& e) {
+      if (modes::is_node_mode(req.mode)) throw;  // a node mode's parameters: its message names them
+      throw UsageError(e.what());
+    }
+  }();
+  node_mode_json(r, o.nodes, extras);
+  extras.node = std::move(r.node);
+  extras.pages = std::move(r.pages);
+  extras.region = std::move(r.region);
+  return std::move(r.render);
 }
 
 void run_render(const RenderOptions& o) {

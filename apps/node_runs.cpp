@@ -264,92 +264,67 @@ std::optional<double> estimate_seconds(const nodes::SubmapPlan& plan, nodes::Com
   return clock == nodes::ComputeClock::kModel ? plan.estimate.model_s : plan.estimate.wall_s;
 }
 
+/// The NodeRun of a finished run `r` in `mode`: T_p, work, rays and the mode's own figures.
+NodeRun summarise(const modes::RunResult& r, modes::Mode mode, nodes::ComputeClock clock) {
+  NodeRun out;
+  const nodes::RunReport& run = *r.run();
+  out.parallel_time_s = run.parallel_time_s;
+  out.work_s = busy_sum(run);
+  out.rays = r.render.stats.rays.total();
+  if (const std::vector<nodes::WorkStats>* work = r.work()) out.grants = grants_sum(*work);
+  if (r.replicated) out.estimate_s = estimate_seconds(r.replicated->submaps, clock);
+  if (mode == modes::Mode::kSvm) {
+    const svm::SvmResult& s = *r.svm;
+    out.estimate_s = estimate_seconds(s.submaps, clock);
+    const svm::PagerStats t = s.pager_total();
+    out.miss_ratio = t.miss_ratio();
+    out.cache_miss_ratio = t.cache_miss_ratio();
+    out.pages_per_pixel = t.pages_per_pixel();
+    out.evictions = t.evictions;
+    const nodes::NodeCounters c = run.total();
+    out.page_requests = c.sent[std::size_t(nodes::MessageType::kPageRequest)].messages;
+    const std::uint64_t page_bytes = c.received[std::size_t(nodes::MessageType::kPageReply)].bytes;
+    out.communication_rate_bytes_per_s = run.parallel_time_s > 0 ? double(page_bytes) / run.parallel_time_s : 0.0;
+    out.cache_pages = s.pager.empty() ? 0u : s.pager.front().cache_pages;
+    out.pages_total = s.layout.pages;
+    out.database_bytes = s.layout.bytes();
+  } else if (mode == modes::Mode::kDataflow) {
+    out.ray_messages = r.dataflow->ray_messages();
+    out.spill_fraction = r.dataflow->spill_fraction();
+    out.average_load = r.dataflow->average_load();
+  }
+  return out;
+}
+
 }  // namespace
 
 NodeRun run_node_mode(const core::Database& db, const core::Grid& grid, const std::string& mode,
                       const NodeRunSpec& spec, std::uint32_t node_count, std::size_t node_memory) {
-  nodes::MachineParams mp = spec.machine;
-  mp.nodes = node_count;
-  if (node_memory > 0) mp.node_memory = node_memory;
-  NodeRun out;
-  out.node_memory = mp.node_memory;
-  const auto t0 = std::chrono::steady_clock::now();
-  // What every mode's result has: its run and its render.
-  auto common = [&](const auto& r) {
-    out.wall_s = seconds_since(t0);
-    out.parallel_time_s = r.run.parallel_time_s;
-    out.work_s = busy_sum(r.run);
-    out.rays = r.render.stats.rays.total();
-  };
+  modes::RunRequest req;
   try {
-    if (mode == "svm") {
-      svm::SvmParams p;
-      p.render = spec.render;
-      p.machine = mp;
-      p.item_w = spec.item_w;
-      p.item_h = spec.item_h;
-      p.submaps = spec.submaps;
-      p.page_size = spec.page_size;
-      p.directory_order = spec.directory_order;
-      p.cache_pages = spec.cache_pages;
-      p.cache_fraction = spec.cache_fraction;
-      p.pack_min = spec.pack_min;
-      const svm::SvmResult r = svm::render_svm(db, grid, p);
-      common(r);
-      out.grants = grants_sum(r.work);
-      out.estimate_s = estimate_seconds(r.submaps, mp.clock);
-      const svm::PagerStats t = r.pager_total();
-      out.miss_ratio = t.miss_ratio();
-      out.cache_miss_ratio = t.cache_miss_ratio();
-      out.pages_per_pixel = t.pages_per_pixel();
-      out.evictions = t.evictions;
-      const nodes::NodeCounters c = r.run.total();
-      out.page_requests = c.sent[std::size_t(nodes::MessageType::kPageRequest)].messages;
-      const std::uint64_t page_bytes = c.received[std::size_t(nodes::MessageType::kPageReply)].bytes;
-      out.communication_rate_bytes_per_s =
-          r.run.parallel_time_s > 0 ? double(page_bytes) / r.run.parallel_time_s : 0.0;
-      out.cache_pages = r.pager.empty() ? 0u : r.pager.front().cache_pages;
-      out.pages_total = r.layout.pages;
-      out.database_bytes = r.layout.bytes();
-    } else if (mode == "replicated") {
-      nodes::ReplicatedParams p;
-      p.render = spec.render;
-      p.machine = mp;
-      p.item_w = spec.item_w;
-      p.item_h = spec.item_h;
-      p.submaps = spec.submaps;
-      const nodes::ReplicatedResult r = nodes::render_replicated(db, grid, p);
-      common(r);
-      out.grants = grants_sum(r.work);
-      out.estimate_s = estimate_seconds(r.submaps, mp.clock);
-    } else if (mode == "dataflow") {
-      dataflow::DataflowParams p;
-      p.render = spec.render;
-      p.machine = mp;
-      p.machine.mailbox_capacity = spec.queue_capacity;
-      p.subsample = spec.subsample;
-      p.partition = spec.partition;
-      p.grid.kind = grid.kind();  // the regions' local grids are of the host grid's kind (--grid)
-      const dataflow::DataflowResult r = dataflow::render_dataflow(db, grid, p);
-      common(r);
-      out.ray_messages = r.ray_messages();
-      out.spill_fraction = r.spill_fraction();
-      out.average_load = r.average_load();
-    } else {
-      throw UsageError("unknown node mode '" + mode + "' (replicated, svm, dataflow)");
-    }
-  } catch (const UsageError&) {
-    throw;
+    req.mode = modes::parse_mode(mode);
+  } catch (const std::invalid_argument&) {
+    throw UsageError("unknown node mode '" + mode + "' (replicated, svm, dataflow)");
+  }
+  if (!modes::is_node_mode(req.mode)) throw UsageError("unknown node mode '" + mode + "' (replicated, svm, dataflow)");
+  req.render = spec.render;
+  req.nodes = spec;
+  req.nodes.machine.nodes = node_count;
+  if (node_memory > 0) req.nodes.machine.node_memory = node_memory;
+  const auto t0 = std::chrono::steady_clock::now();
+  NodeRun out;
+  try {
+    out = summarise(modes::render(db, &grid, req), req.mode, req.nodes.machine.clock);
   } catch (const std::invalid_argument& e) {
     throw UsageError(mode + " mode: " + e.what());
   } catch (const std::exception& e) {
     if (!is_fit_error(e)) throw;
     out = NodeRun{};
     out.fits = false;
-    out.node_memory = mp.node_memory;
     out.skipped = e.what();
-    out.wall_s = seconds_since(t0);
   }
+  out.node_memory = req.nodes.machine.node_memory;
+  out.wall_s = seconds_since(t0);
   return out;
 }
 

@@ -35,6 +35,7 @@
 #include "core/grid.h"
 #include "core/render.h"
 #include "dataflow/dataflow.h"
+#include "modes/modes.h"
 #include "nodes/machine.h"
 #include "nodes/submap_plan.h"
 #include "nodes/network.h"
@@ -111,20 +112,10 @@ void add_node_run_options(CLI::App& cmd, NodeRunOptions& o, NodeRunOptionSet set
 /// `fraction` (0..1]; "" changes nothing. Throws UsageError.
 void parse_cache(const std::string& text, std::uint32_t& pages, double& fraction);
 
-/// Everything a run needs besides the node count, parsed and checked.
-struct NodeRunSpec {
+/// Everything a run needs besides the node count, parsed and checked: the
+/// node modes' parameters (modes/modes.h), the render's, and the repeats.
+struct NodeRunSpec : modes::NodeModeParams {
   core::RenderParams render;          ///< width, height (the rest: defaults)
-  nodes::MachineParams machine;       ///< nodes set per run
-  std::int32_t item_w = 3, item_h = 3;
-  std::uint32_t page_size = 1024;     ///< svm
-  std::optional<svm::DirectoryOrder> directory_order;  ///< svm; nullopt = auto
-  std::uint32_t cache_pages = 0;      ///< svm: frames per node; 0 = all free memory
-  double cache_fraction = 0;          ///< svm: of the database's pages, used when > 0
-  std::uint32_t pack_min = 0;         ///< svm: --pack-cells (svm::SvmParams::pack_min); 0 = the paper's object lists
-  nodes::SubmapParams submaps;        ///< replicated, svm
-  int subsample = 8;                  ///< dataflow
-  dataflow::PartitionKind partition = dataflow::PartitionKind::kBalanced;
-  std::uint32_t queue_capacity = 0;   ///< dataflow
   int repeat = 1;
 };
 
