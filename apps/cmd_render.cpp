@@ -29,6 +29,7 @@
 #include "apps/node_runs.h"
 #include "apps/output_files.h"
 #include "apps/progress.h"
+#include "apps/render_stats.h"
 #include "apps/run_summary.h"
 #include "apps/watchdog.h"
 #include "core/database.h"
@@ -81,39 +82,6 @@ NodeRunSpec node_spec(const RenderOptions& o) {
   spec.machine.nodes = std::uint32_t(o.nodes);
   spec.machine.timeout_s = 0;
   return spec;
-}
-
-/// What a frame produced besides the RenderResult (node modes only).
-struct FrameExtras {
-  nlohmann::json nodes;  ///< the machine report ("nodes" in --stats), null for in-process modes
-  core::Image node;      ///< --aov node
-  core::Image pages;     ///< --aov pages (svm)
-  nlohmann::json svm;    ///< the "svm" object of --stats
-  core::Image region;    ///< --aov region (dataflow)
-  nlohmann::json dataflow;  ///< the "dataflow" object of --stats
-};
-
-/// The machine report's keys that every node mode fills the same way.
-void fill_work_stats(const std::vector<nodes::WorkStats>& work, const std::vector<core::RenderStats>& tracing,
-                     const nodes::RunReport& run, int node_count, nlohmann::json& j) {
-  nodes::WorkStats sum;
-  for (const nodes::WorkStats& w : work) sum += w;
-  double busy = 0;
-  for (const nodes::NodeReport& n : run.nodes) busy += n.counters.busy_s;
-  j["work_s"] = busy;
-  // Without a one-node run, T_1 is estimated by the summed busy time.
-  j["efficiency_estimate"] = run.parallel_time_s > 0 ? busy / (double(node_count) * run.parallel_time_s) : 0.0;
-  j["work"] = {{"items_own", sum.items_own},         {"items_received", sum.items_received},
-               {"requests_sent", sum.requests_sent}, {"requests_forwarded", sum.requests_forwarded},
-               {"grants", sum.grants_given},         {"pixels_granted", sum.pixels_granted},
-               {"request_hops", sum.request_hops}};
-  for (std::size_t i = 0; i < work.size() && i < j["per_node"].size(); ++i) {
-    auto& e = j["per_node"][i];
-    e["pixels"] = work[i].pixels;
-    e["grants_given"] = work[i].grants_given;
-    e["items_received"] = work[i].items_received;
-    e["rays"] = tracing[i].rays.total();
-  }
 }
 
 /// out.png -> out.depth.exr (same directory).
@@ -187,31 +155,6 @@ modes::RunRequest render_request(const RenderOptions& o, const Accelerator& acce
   return req;
 }
 
-/// The --stats objects of a node-mode run `r` of `nodes` nodes (nothing for the in-process modes).
-void node_mode_json(const modes::RunResult& r, int nodes, FrameExtras& extras) {
-  const nodes::RunReport* run = r.run();
-  if (!run) return;
-  extras.nodes = run->to_json(true);
-  if (r.replicated) {
-    extras.nodes["submaps"] = r.replicated->submaps.to_json();
-    extras.nodes["database_bytes_per_node"] = r.replicated->database_bytes;
-  }
-  if (r.svm) {
-    extras.nodes["submaps"] = r.svm->submaps.to_json();
-    extras.svm = r.svm->to_json();
-  }
-  if (r.work()) {
-    fill_work_stats(*r.work(), *r.tracing(), *run, nodes, extras.nodes);
-  } else {
-    double busy = 0;
-    for (const nodes::NodeReport& n : run->nodes) busy += n.counters.busy_s;
-    extras.nodes["work_s"] = busy;
-    extras.nodes["efficiency_estimate"] =
-        run->parallel_time_s > 0 ? busy / (double(nodes) * run->parallel_time_s) : 0.0;
-  }
-  if (r.dataflow) extras.dataflow = r.dataflow->to_json();
-}
-
 /// Renders `db` through `accel` in mode `o.mode` with `params`
 /// (modes::render), and fills `extras` with the node modes' AOVs and
 /// --stats objects. Throws UsageError for a mode/option combination that
@@ -234,45 +177,100 @@ core::RenderResult render_frame(const RenderOptions& o, const core::Database& db
   return std::move(r.render);
 }
 
-void run_render(const RenderOptions& o) {
+/// The render's parameters from `o`, and which of the node modes' AOVs it
+/// asks for. Throws UsageError for an unknown AOV.
+core::RenderParams render_params(const RenderOptions& o, bool& node_aov, bool& pages_aov) {
   core::RenderParams params;
   params.width = o.width;
   params.height = o.height;
   params.spp = o.spp;
   params.max_depth = o.max_depth;
   params.min_weight = o.min_weight;
-  bool node_aov = false, pages_aov = false;
+  node_aov = pages_aov = false;
   for (const std::string& a : o.aovs) {
     if (a == "node") node_aov = true;
     else if (a == "pages") pages_aov = true;
-    else if (a == "region") continue;  // dataflow: render_frame reads it from the options
+    else if (a == "region") continue;  // dataflow: render_request reads it from the options
     else if (a == "depth") params.depth_aov = true;
     else if (a == "normal") params.normal_aov = true;
     else if (a == "primitive") params.primitive_aov = true;
     else throw UsageError("unknown AOV '" + a + "' (supported: depth, normal, primitive, node, pages, region)");
   }
-  if (!imageio::is_float_format(o.output) && std::filesystem::path(o.output).extension().empty())
-    throw UsageError("output '" + o.output + "' has no extension to choose the image format");
-  if (!imageio::can_write_format(o.output))
-    throw UsageError("no image writer for the extension of '" + o.output + "' (try .png, .exr, .tif, .ppm)");
-  if (o.grid.given && o.accel == "embree") throw UsageError("--grid is for --accel grid; --accel embree builds no grid");
-  // Every output is declared, checked and given its temporary before any
-  // work; the AOVs' files are those the options can produce.
-  OutputFiles files(core::is_scene_file(o.source.spec) ? std::vector<std::string>{o.source.spec}
-                                                       : std::vector<std::string>{});
-  const std::size_t image_out = files.add(o.output, "image", false);
-  const std::size_t stats_out = o.stats_path.empty() ? 0 : files.add(o.stats_path, "--stats file", true);
-  std::map<std::string, std::size_t> aov_out, map_out;  // AOV name -> output
-  for (const std::string& a : o.aovs) {
-    if (aov_out.count(a)) continue;
-    aov_out[a] = files.add(aov_path(o.output, a), "AOV", false);
-    if (a == "node" || a == "pages")  // NAME.node.png, NAME.pages.png beside the EXR
-      map_out[a] =
-          files.add(std::filesystem::path(aov_path(o.output, a)).replace_extension(".png").string(), "AOV map", false);
+  return params;
+}
+
+/// Every file a render writes, declared, checked and given its temporary
+/// before any work (OutputFiles): the image, --stats, and each AOV the
+/// options can produce (NAME.AOV.exr; NAME.node.png, NAME.pages.png beside
+/// the node modes' maps). Throws UsageError for an output it cannot write.
+class RenderOutputs {
+ public:
+  explicit RenderOutputs(const RenderOptions& o)
+      : files_(core::is_scene_file(o.source.spec) ? std::vector<std::string>{o.source.spec}
+                                                  : std::vector<std::string>{}) {
+    if (!imageio::is_float_format(o.output) && std::filesystem::path(o.output).extension().empty())
+      throw UsageError("output '" + o.output + "' has no extension to choose the image format");
+    if (!imageio::can_write_format(o.output))
+      throw UsageError("no image writer for the extension of '" + o.output + "' (try .png, .exr, .tif, .ppm)");
+    image_ = files_.add(o.output, "image", false);
+    if (!o.stats_path.empty()) stats_ = files_.add(o.stats_path, "--stats file", true);
+    for (const std::string& a : o.aovs) {
+      if (aov_.count(a)) continue;
+      aov_[a] = files_.add(aov_path(o.output, a), "AOV", false);
+      if (a == "node" || a == "pages")
+        map_[a] = files_.add(std::filesystem::path(aov_path(o.output, a)).replace_extension(".png").string(),
+                             "AOV map", false);
+    }
   }
 
-  const core::Scene scene = core::load_scene(o.source);
-  const core::Database db = core::make_database(scene);
+  /// Stages the image and the AOVs there are (names and paths in aov_files()).
+  void images(const core::RenderResult& result, const FrameExtras& extras) {
+    files_.image(image_, result.color);
+    aov("depth", result.depth);
+    aov("normal", result.normal);
+    aov("primitive", result.primitive);
+    aov("node", extras.node);
+    aov("pages", extras.pages);
+    aov("region", extras.region);
+    if (!extras.node.empty()) map("node", imageio::label_map(extras.node));
+    if (!extras.pages.empty()) map("pages", imageio::heat_map(extras.pages));
+  }
+  /// Stages the --stats document, if asked for.
+  void stats(const nlohmann::json& j) {
+    if (stats_) files_.text(*stats_, j.dump(2) + "\n");
+  }
+  bool wants_stats() const { return stats_.has_value(); }
+  /// Replaces every output with its staged file (OutputFiles::commit).
+  void commit() { files_.commit(); }
+  /// Where the summary goes: stderr when stdout carries an output (--stats -).
+  std::FILE* report() const { return files_.uses_stdout() ? stderr : stdout; }
+  const std::vector<std::pair<std::string, std::string>>& aov_files() const { return aov_files_; }
+
+ private:
+  void aov(const char* name, const core::Image& image) {
+    if (image.empty()) return;
+    const std::size_t id = aov_.at(name);
+    aov_files_.emplace_back(name, files_.path(id));
+    files_.image(id, image);
+  }
+  void map(const char* name, const core::Image& picture) {
+    const std::size_t id = map_.at(name);
+    aov_files_.emplace_back(std::string(name) + "_map", files_.path(id));
+    files_.image(id, picture);
+  }
+
+  OutputFiles files_;
+  std::size_t image_ = 0;
+  std::optional<std::size_t> stats_;
+  std::map<std::string, std::size_t> aov_, map_;  // AOV name -> output
+  std::vector<std::pair<std::string, std::string>> aov_files_;  // (aov, path) staged
+};
+
+/// `o`'s scene and its database; throws std::runtime_error naming the scene
+/// when nothing is left to render.
+std::pair<core::Scene, core::Database> load_database(const RenderOptions& o) {
+  core::Scene scene = core::load_scene(o.source);
+  core::Database db = core::make_database(scene);
   if (db.primitives.empty()) {
     const std::size_t dropped = scene.dropped_degenerate + db.dropped_degenerate_triangles;
     throw std::runtime_error(fmt::format("{}: the scene has no primitives to render{}", o.source.spec,
@@ -280,8 +278,12 @@ void run_render(const RenderOptions& o) {
                                                       : fmt::format(" ({} degenerate polygon{} dropped)", dropped,
                                                                     dropped == 1 ? "" : "s")));
   }
-  const Accelerator accel = build_accelerator(o, db);
+  return {std::move(scene), std::move(db)};
+}
 
+/// The image's pixel count for `params` over `db`'s view; fits a lone
+/// --width or --height to the view's aspect ratio.
+std::uint64_t frame_pixels(const RenderOptions& o, const core::Database& db, core::RenderParams& params) {
   const core::View cam_view = [&] {
     try {
       return core::render_view(db);
@@ -289,10 +291,19 @@ void run_render(const RenderOptions& o) {
       throw std::runtime_error(o.source.spec + ": " + e.what());
     }
   }();
-  // --width or --height alone: the other side keeps the view's aspect ratio.
   core::fit_resolution(params.width, params.height, cam_view);
-  const std::uint64_t pixels = std::uint64_t(params.width > 0 ? params.width : cam_view.width) *
-                               std::uint64_t(params.height > 0 ? params.height : cam_view.height);
+  return std::uint64_t(params.width > 0 ? params.width : cam_view.width) *
+         std::uint64_t(params.height > 0 ? params.height : cam_view.height);
+}
+
+void run_render(const RenderOptions& o) {
+  bool node_aov = false, pages_aov = false;
+  core::RenderParams params = render_params(o, node_aov, pages_aov);
+  if (o.grid.given && o.accel == "embree") throw UsageError("--grid is for --accel grid; --accel embree builds no grid");
+  RenderOutputs outputs(o);
+  const auto [scene, db] = load_database(o);
+  const Accelerator accel = build_accelerator(o, db);
+  const std::uint64_t pixels = frame_pixels(o, db, params);
   std::atomic<std::uint64_t> done{0};
   params.progress = &done;
 
@@ -305,122 +316,23 @@ void run_render(const RenderOptions& o) {
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   progress.finish();
 
-  std::vector<std::pair<std::string, std::string>> aov_files;  // (aov, path)
-  auto write_aov = [&](const char* name, const core::Image& image) {
-    if (image.empty()) return;
-    const std::size_t id = aov_out.at(name);
-    aov_files.emplace_back(name, files.path(id));
-    files.image(id, image);
-  };
-  files.image(image_out, result.color);
-  write_aov("depth", result.depth);
-  write_aov("normal", result.normal);
-  write_aov("primitive", result.primitive);
-  write_aov("node", extras.node);
-  write_aov("pages", extras.pages);
-  write_aov("region", extras.region);
-  // Pictures of the node modes' maps beside their data: NAME.node.png, NAME.pages.png.
-  auto write_map = [&](const char* name, const core::Image& picture) {
-    if (picture.empty()) return;
-    const std::size_t id = map_out.at(name);
-    aov_files.emplace_back(std::string(name) + "_map", files.path(id));
-    files.image(id, picture);
-  };
-  if (!extras.node.empty()) write_map("node", imageio::label_map(extras.node));
-  if (!extras.pages.empty()) write_map("pages", imageio::heat_map(extras.pages));
-
+  outputs.images(result, extras);
+  if (outputs.wants_stats())
+    outputs.stats(render_stats_json(RenderRecord{
+        o.source.spec, o.source.tessellate, o.mode, o.accel, o.output, o.nodes, params, result, wall_s, cpu_s, scene,
+        db, accel.grid ? &*accel.grid : nullptr, accel.blocks ? &*accel.blocks : nullptr, accel.build_s,
+        o.skip_empty, extras, outputs.aov_files()}));
+  std::FILE* report = outputs.report();  // before commit, which releases the outputs
+  outputs.commit();
+  if (o.quiet) return;
   const core::RenderStats& s = result.stats;
-  if (!o.stats_path.empty()) {
-    const core::SceneCounts sc = scene.counts();
-    const core::DatabaseCounts dc = db.counts();
-    nlohmann::json j = {
-        {"scene", o.source.spec},
-        {"tessellate", o.source.tessellate},
-        {"mode", o.mode},
-        {"accel", o.accel},
-        {"nodes", o.nodes},
-        {"width", result.color.width},
-        {"height", result.color.height},
-        {"spp", params.spp},
-        {"max_depth", params.max_depth},
-        {"min_weight", params.min_weight},
-        {"rays",
-         {{"primary", s.rays.primary},
-          {"shadow", s.rays.shadow},
-          {"reflected", s.rays.reflected},
-          {"refracted", s.rays.refracted},
-          {"refracted_tir", s.rays.refracted_tir},
-          {"total", s.rays.total()}}},
-        {"skipped",
-         {{"reflection_ks0", s.skipped.reflection_ks0},
-          {"refraction_t0", s.skipped.refraction_t0},
-          {"shadow_backfacing", s.skipped.shadow_backfacing},
-          {"highlight_marker", s.skipped.highlight_marker},
-          {"depth_limit", s.skipped.depth_limit},
-          {"min_weight", s.skipped.min_weight}}},
-        {"tests",
-         {{"triangle", s.traversal.triangle_tests},
-          {"sphere", s.traversal.sphere_tests},
-          {"cone", s.traversal.cone_tests}}},
-        {"cells_visited", s.traversal.cells_visited},
-        {"empty_jumps", s.traversal.empty_jumps},
-        {"mailbox_skips", s.traversal.mailbox_skips},
-        {"time", {{"wall_s", wall_s}, {"cpu_s", cpu_s}, {"accel_build_s", accel.build_s}}},
-        {"scene_counts",
-         {{"polygons", sc.polygons},
-          {"patches", sc.patches},
-          {"spheres", sc.spheres},
-          {"cones", sc.cones},
-          {"lights", sc.lights},
-          {"materials", sc.materials}}},
-        {"database",
-         {{"primitives", db.primitives.size()},
-          {"triangles", dc.triangles},
-          {"spheres", dc.spheres},
-          {"cones", dc.cones}}},
-        {"output", o.output},
-        {"run", run_json()},
-    };
-    if (accel.grid) {
-      j["grid_resolution"] = {accel.grid->info.res[0], accel.grid->info.res[1], accel.grid->info.res[2]};
-      j["grid"] = grid_json(*accel.grid);
-      j["grid"]["build_s"] = accel.build_s;
-      j["skip_empty"] = o.skip_empty;
-      // svm packs its paged database, not the host's grid.
-      const bool svm = !extras.svm.is_null();
-      j["pack_cells"] = svm ? extras.svm["pack_cells"] : nlohmann::json(accel.blocks ? accel.blocks->min_triangles : 0);
-      j["packed_blocks"] = svm ? extras.svm["packed_blocks"]
-                               : nlohmann::json(accel.blocks ? accel.blocks->blocks.size() : 0);
-    }
-    for (const auto& [name, path] : aov_files) j["aov_outputs"][name] = path;
-    if (!extras.nodes.is_null()) {
-      // "nodes" stays the count; the machine's totals and each node's counters beside it.
-      j["per_node"] = extras.nodes["per_node"];
-      extras.nodes.erase("per_node");
-      j["machine"] = extras.nodes;
-    }
-    if (!extras.svm.is_null()) {
-      j["svm"] = extras.svm;
-      j["svm"]["per_node"] = nullptr;
-      j["svm"].erase("per_node");
-      for (std::size_t i = 0; i < extras.svm["per_node"].size() && i < j["per_node"].size(); ++i)
-        j["per_node"][i]["svm"] = extras.svm["per_node"][i];
-    }
-    if (!extras.dataflow.is_null()) j["dataflow"] = extras.dataflow;
-    files.text(stats_out, j.dump(2) + "\n");
-  }
-  // The summary goes to stderr when stdout carries an output (--stats -).
-  std::FILE* report = files.uses_stdout() ? stderr : stdout;
-  files.commit();
-  if (!o.quiet) {
-    fmt::print(report, "{}: {}x{} spp {}x{} mode {} accel {} in {:.3f} s wall ({:.3f} s cpu)\n", o.output,
-               result.color.width, result.color.height, params.spp, params.spp, o.mode, o.accel, wall_s, cpu_s);
-    fmt::print(report, "rays: {} primary, {} shadow, {} reflected, {} refracted ({} total)\n", s.rays.primary,
-               s.rays.shadow, s.rays.reflected, s.rays.refracted, s.rays.total());
-    for (const std::string& line : node_run_summary(extras.nodes, extras.svm, extras.dataflow))
-      fmt::print(report, "{}\n", line);
-    for (const auto& [name, path] : aov_files) fmt::print(report, "{}: {}\n", name, path);
-  }
+  fmt::print(report, "{}: {}x{} spp {}x{} mode {} accel {} in {:.3f} s wall ({:.3f} s cpu)\n", o.output,
+             result.color.width, result.color.height, params.spp, params.spp, o.mode, o.accel, wall_s, cpu_s);
+  fmt::print(report, "rays: {} primary, {} shadow, {} reflected, {} refracted ({} total)\n", s.rays.primary,
+             s.rays.shadow, s.rays.reflected, s.rays.refracted, s.rays.total());
+  for (const std::string& line : node_run_summary(extras.nodes, extras.svm, extras.dataflow))
+    fmt::print(report, "{}\n", line);
+  for (const auto& [name, path] : outputs.aov_files()) fmt::print(report, "{}: {}\n", name, path);
 }
 
 }  // namespace
