@@ -171,7 +171,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
   // Balanced submaps: the host's estimate ran before each run, outside
   // virtual time (as the paper leaves out its data-oriented algorithm's);
   // eff_charged adds it to T_p, as serial work of one node before the run.
-  const bool balanced = !flow && spec.submaps.rule == nodes::SubmapRule::kBalanced;
+  const bool balanced = !flow && spec.submaps.rule == control::SubmapRule::kBalanced;
   if (flow)
     fmt::print(report, "{:>6} {:>9} {:>11} {:>9} {:>10} {:>10} {:>10} {:>10} {:>9}\n", "nodes", "wall_s", "T_p_s", "speedup",
                "efficiency", "work_s", "ray_msgs", "spill", "avg_load");

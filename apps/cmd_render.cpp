@@ -44,7 +44,7 @@
 #include "imageio/write_image.h"
 #include "nodes/machine.h"
 #include "nodes/network.h"
-#include "nodes/replicated.h"
+#include "control/replicated.h"
 #include "svm/svm.h"
 
 namespace raynode::apps {

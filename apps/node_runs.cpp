@@ -11,7 +11,7 @@
 #include <tuple>
 
 #include "apps/commands.h"
-#include "nodes/replicated.h"
+#include "control/replicated.h"
 #include "nodes/topology.h"
 #include "svm/svm.h"
 
@@ -181,7 +181,7 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
     m.clock = nodes::parse_compute_clock(o.clock);
     m.work_request_route = nodes::parse_work_request_route(o.work_requests);
     m.work_grant = nodes::parse_work_grant(o.work_grants);
-    s.submaps.rule = nodes::parse_submap_rule(o.submaps);
+    s.submaps.rule = control::parse_submap_rule(o.submaps);
   } catch (const std::invalid_argument& e) {
     throw UsageError(std::string("--topology/--clock/--work-requests/--work-grants/--submaps: ") + e.what());
   }
@@ -251,16 +251,16 @@ double busy_sum(const nodes::RunReport& run) {
   return s;
 }
 
-std::uint64_t grants_sum(const std::vector<nodes::WorkStats>& work) {
+std::uint64_t grants_sum(const std::vector<control::WorkStats>& work) {
   std::uint64_t g = 0;
-  for (const nodes::WorkStats& w : work) g += w.grants_given;
+  for (const control::WorkStats& w : work) g += w.grants_given;
   return g;
 }
 
 /// The balanced submaps' host estimate in the run's clock's seconds;
 /// nullopt for square submaps.
-std::optional<double> estimate_seconds(const nodes::SubmapPlan& plan, nodes::ComputeClock clock) {
-  if (plan.params.rule != nodes::SubmapRule::kBalanced) return std::nullopt;
+std::optional<double> estimate_seconds(const control::SubmapPlan& plan, nodes::ComputeClock clock) {
+  if (plan.params.rule != control::SubmapRule::kBalanced) return std::nullopt;
   return clock == nodes::ComputeClock::kModel ? plan.estimate.model_s : plan.estimate.wall_s;
 }
 
@@ -271,7 +271,7 @@ NodeRun summarise(const modes::RunResult& r, modes::Mode mode, nodes::ComputeClo
   out.parallel_time_s = run.parallel_time_s;
   out.work_s = busy_sum(run);
   out.rays = r.render.stats.rays.total();
-  if (const std::vector<nodes::WorkStats>* work = r.work()) out.grants = grants_sum(*work);
+  if (const std::vector<control::WorkStats>* work = r.work()) out.grants = grants_sum(*work);
   if (r.replicated) out.estimate_s = estimate_seconds(r.replicated->submaps, clock);
   if (mode == modes::Mode::kSvm) {
     const svm::SvmResult& s = *r.svm;

@@ -37,7 +37,7 @@
 #include "dataflow/dataflow.h"
 #include "modes/modes.h"
 #include "nodes/machine.h"
-#include "nodes/submap_plan.h"
+#include "control/submap_plan.h"
 #include "nodes/network.h"
 #include "svm/paged_database.h"
 
@@ -73,7 +73,7 @@ struct NodeRunOptions {
   std::string clock = "cpu";            ///< cpu or model (nodes::ComputeClock)
   std::string work_requests = "ring";   ///< ring, last-grantor or off (nodes::WorkRequestRoute)
   std::string work_grants = "item";     ///< item, nearest or half (nodes::WorkGrant)
-  std::string submaps = "square";       ///< square or balanced (nodes::SubmapRule)
+  std::string submaps = "square";       ///< square or balanced (control::SubmapRule)
   double stall_timeout_s = 60;          ///< wall seconds without a message before a run stops; 0 = never
   double timeout_s = 0;                 ///< per run, wall seconds; 0 = none
   int repeat = 1;                       ///< runs per point; the lowest T_p is kept

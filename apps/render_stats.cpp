@@ -8,10 +8,10 @@ namespace raynode::apps {
 namespace {
 
 /// The machine report's keys that every node mode fills the same way.
-void fill_work_stats(const std::vector<nodes::WorkStats>& work, const std::vector<core::RenderStats>& tracing,
+void fill_work_stats(const std::vector<control::WorkStats>& work, const std::vector<core::RenderStats>& tracing,
                      const nodes::RunReport& run, int node_count, nlohmann::json& j) {
-  nodes::WorkStats sum;
-  for (const nodes::WorkStats& w : work) sum += w;
+  control::WorkStats sum;
+  for (const control::WorkStats& w : work) sum += w;
   double busy = 0;
   for (const nodes::NodeReport& n : run.nodes) busy += n.counters.busy_s;
   j["work_s"] = busy;

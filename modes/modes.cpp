@@ -38,7 +38,7 @@ const nodes::RunReport* RunResult::run() const {
   return nullptr;
 }
 
-const std::vector<nodes::WorkStats>* RunResult::work() const {
+const std::vector<control::WorkStats>* RunResult::work() const {
   if (replicated) return &replicated->work;
   if (svm) return &svm->work;
   return nullptr;
@@ -79,14 +79,14 @@ RunResult render_in_process(const core::Database& db, const core::Grid* grid, co
 
 RunResult render_replicated(const core::Database& db, const core::Grid& grid, const RunRequest& req) {
   const NodeModeParams& n = req.nodes;
-  nodes::ReplicatedParams p;
+  control::ReplicatedParams p;
   p.render = req.render;
   p.machine = n.machine;
   p.item_w = n.item_w, p.item_h = n.item_h;
   p.submaps = n.submaps;
   p.node_aov = req.node_aov;
   RunResult out;
-  out.replicated = nodes::render_replicated(db, grid, p);
+  out.replicated = control::render_replicated(db, grid, p);
   out.render = std::move(out.replicated->render);
   out.node = std::move(out.replicated->node);
   return out;

@@ -23,8 +23,8 @@
 #include "core/render.h"
 #include "dataflow/dataflow.h"
 #include "nodes/machine.h"
-#include "nodes/replicated.h"
-#include "nodes/submap_plan.h"
+#include "control/replicated.h"
+#include "control/submap_plan.h"
 #include "svm/svm.h"
 
 namespace raynode::modes {
@@ -43,7 +43,7 @@ inline bool is_node_mode(Mode mode) { return mode != Mode::kSequential && mode !
 struct NodeModeParams {
   nodes::MachineParams machine;       ///< all node modes: nodes, memory, network, clock, ...
   std::int32_t item_w = 3, item_h = 3;  ///< replicated, svm: work item, pixels
-  nodes::SubmapParams submaps;        ///< replicated, svm: the initial distribution
+  control::SubmapParams submaps;        ///< replicated, svm: the initial distribution
   std::uint32_t page_size = 1024;     ///< svm: bytes
   std::optional<svm::DirectoryOrder> directory_order;  ///< svm; nullopt = bricked on several nodes
   std::uint32_t cache_pages = 0;      ///< svm: frames per node; 0 = all free memory
@@ -73,14 +73,14 @@ struct RunResult {
   core::Image node;           ///< node_aov: the node of each pixel (1 channel)
   core::Image pages;          ///< pages_aov: distinct pages per pixel (1 channel)
   core::Image region;         ///< region_aov: region of each pixel's first hit, -1 on a miss
-  std::optional<nodes::ReplicatedResult> replicated;
+  std::optional<control::ReplicatedResult> replicated;
   std::optional<svm::SvmResult> svm;
   std::optional<dataflow::DataflowResult> dataflow;
 
   /// The emulated machine's report; null for the in-process modes.
   const nodes::RunReport* run() const;
   /// Each node's work counters (replicated, svm); null otherwise.
-  const std::vector<nodes::WorkStats>* work() const;
+  const std::vector<control::WorkStats>* work() const;
   /// Each node's tracing counters (replicated, svm); null otherwise.
   const std::vector<core::RenderStats>* tracing() const;
 };

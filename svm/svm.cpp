@@ -11,14 +11,14 @@
 
 #include "core/camera.h"
 #include "core/shade.h"
-#include "nodes/image_frame.h"
-#include "nodes/pixel_record.h"
+#include "control/image_frame.h"
+#include "control/pixel_record.h"
 #include "svm/paged_view.h"
 
 namespace raynode::svm {
 
 using nodes::NodeContext;
-using nodes::Rect;
+using control::Rect;
 
 namespace {
 
@@ -41,12 +41,12 @@ struct NodeState {
   nodes::ArenaArray<core::Light> lights;
   nodes::ArenaArray<std::int32_t> cell_keys;  ///< bricked directory: CellKeyTables' words
   core::CellKeyTables cell_order;
-  nodes::PixelBatch batch;  ///< outgoing pixel blocks (one message's payload)
+  control::PixelBatch batch;  ///< outgoing pixel blocks (one message's payload)
   Pager* pager = nullptr;
   core::ShadingScratch* scratch = nullptr;
   nodes::Arena* arena = nullptr;
   core::RenderStats stats;
-  nodes::WorkStats work;
+  control::WorkStats work;
   PagerStats pager_stats;
   core::CostModel cost_model;
 
@@ -137,7 +137,7 @@ std::uint32_t cache_frames_for(const PageLayout& layout, const SvmParams& params
 
 SvmResult render_svm(const core::Database& db, const core::Grid& grid, const SvmParams& params) {
   const core::RenderParams& rp = params.render;
-  const nodes::ImageFrame frame = nodes::image_frame(db, rp, params.item_w, params.item_h);
+  const control::ImageFrame frame = control::image_frame(db, rp, params.item_w, params.item_h);
   if (!(params.cache_fraction >= 0 && params.cache_fraction <= 1))
     throw std::invalid_argument(fmt::format("cache fraction must be in (0, 1], got {}", params.cache_fraction));
 
@@ -155,9 +155,9 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
   const RunInput in{&image, grid.info, db.materials, db.lights, db.background, frame.camera};
   const PageLayout& layout = image.layout;
 
-  nodes::PixelLayout pixel_layout(rp);
+  control::PixelLayout pixel_layout(rp);
   const int pages_channel = params.pages_aov ? pixel_layout.add_channel() : -1;
-  const std::uint32_t item_bytes = nodes::pixels_payload_bytes(params.item_w, params.item_h, pixel_layout.channels);
+  const std::uint32_t item_bytes = control::pixels_payload_bytes(params.item_w, params.item_h, pixel_layout.channels);
   nodes::MachineParams mp = params.machine;
   mp.max_payload = std::max({mp.max_payload, item_bytes, std::uint32_t(sizeof(PageReplyMsg) + layout.page_size)});
   nodes::Machine machine(mp);  // validates the node count
@@ -167,14 +167,14 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
   out.layout = layout;
   // The host's work before the run: the submaps (balanced: after tracing
   // its estimate over `db` and `grid`, outside virtual time).
-  out.submaps = nodes::plan_submaps(db, grid, in.camera, rp, m.nodes, params.submaps, m.cost_model);
+  out.submaps = control::plan_submaps(db, grid, in.camera, rp, m.nodes, params.submaps, m.cost_model);
   const std::vector<Rect>& submaps = out.submaps.rects;
   out.node_fixed_bytes = nodes::Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload +
                          pager_table_bytes(layout, 0) + sizeof(Pager) + in.materials.size_bytes() +
-                         in.lights.size_bytes() + nodes::PixelBatch::bytes(m.max_payload) + sizeof(core::ShadingScratch) +
+                         in.lights.size_bytes() + control::PixelBatch::bytes(m.max_payload) + sizeof(core::ShadingScratch) +
                          (order == DirectoryOrder::kBricked ? core::CellKeyTables::words(in.grid) * sizeof(std::int32_t) : 0) +
                          message_reserve(m.max_payload) +
-                         nodes::work_farm_bytes(m.work_grant, submaps, params.item_w, params.item_h);
+                         control::work_farm_bytes(m.work_grant, submaps, params.item_w, params.item_h);
   // Fail before starting, with the sizes, when a node cannot hold its part.
   std::vector<std::uint32_t> cache(m.nodes);
   SvmParams sized = params;
@@ -184,7 +184,7 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
   std::vector<core::Image*> extra;
   if (params.node_aov) extra.push_back(&out.node);
   if (params.pages_aov) extra.push_back(&out.pages);
-  nodes::size_images(out.render, rp, frame, extra);
+  control::size_images(out.render, rp, frame, extra);
 
   std::vector<std::unique_ptr<NodeState>> states(m.nodes);
   HostPages& host_pages = image.pages;
@@ -205,7 +205,7 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
       s->cell_keys = nodes::ArenaArray<std::int32_t>(a, core::CellKeyTables::words(in.grid), "the cell key tables");
       s->cell_order = core::CellKeyTables::build(in.grid, layout.bricks, s->cell_keys.span());
     }
-    s->batch = nodes::PixelBatch(a, m.max_payload);
+    s->batch = control::PixelBatch(a, m.max_payload);
     s->scratch = a.create<core::ShadingScratch>("its tracing scratch");
     s->cost_model = cost_model;
     s->pager = a.create<Pager>("its pager", ctx, layout, cache[ctx.id()]);
@@ -225,7 +225,7 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
     const core::ShadingContext shading = core::make_shading_context(
         std::span<const core::Light>(s.lights.span()), s.background, s.render.max_depth, s.render.min_weight);
     ctx.set_work_meter(&NodeState::work_seconds, &s);
-    const nodes::PixelJob job{shading, s.camera, s.render.spp, s.render.any_aov(), pixel_layout, *s.scratch, s.batch};
+    const control::PixelJob job{shading, s.camera, s.render.spp, s.render.any_aov(), pixel_layout, *s.scratch, s.batch};
     // The pages each pixel touched (--aov pages), and the pager's end of a work item.
     struct Hooks {
       Pager& pager;
@@ -236,10 +236,10 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
       }
       void end_item() { pager.end_pixel(); }
     };
-    const nodes::OtherMessageHandler serve = [&](NodeContext&, const nodes::Message& msg) { return pager.serve(msg); };
+    const control::OtherMessageHandler serve = [&](NodeContext&, const nodes::Message& msg) { return pager.serve(msg); };
     // The work farm over this node's view (linear or bricked directory).
     auto farm = [&](const auto& view) {
-      return nodes::render_items(ctx, s.submap, params.item_w, params.item_h, view, job, Hooks{pager, pages_channel},
+      return control::render_items(ctx, s.submap, params.item_w, params.item_h, view, job, Hooks{pager, pages_channel},
                                  serve);
     };
     s.work = layout.directory_order == DirectoryOrder::kBricked
@@ -251,9 +251,9 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
   };
 
   auto host_main = [&](NodeContext& host) {
-    const nodes::ExtraChannel pages[] = {{pages_channel, &out.pages}};
-    nodes::assemble_pixels(host, pixel_layout, out.render, out.node, rp.progress,
-                           std::span<const nodes::ExtraChannel>(pages, pages_channel >= 0 ? 1 : 0));
+    const control::ExtraChannel pages[] = {{pages_channel, &out.pages}};
+    control::assemble_pixels(host, pixel_layout, out.render, out.node, rp.progress,
+                           std::span<const control::ExtraChannel>(pages, pages_channel >= 0 ? 1 : 0));
   };
 
   out.tracing.resize(m.nodes);

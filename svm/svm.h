@@ -4,8 +4,8 @@
 // shared virtual memory of fixed-size pages spread over all nodes' memories:
 // each node keeps its home pages and caches others' pages it reads (LRU);
 // pixels are distributed as square submaps (or, --submaps balanced, parts
-// of near-equal estimated cost: nodes/submap_plan.h) plus 3x3 work items
-// stolen along the ring (nodes/work.h).
+// of near-equal estimated cost: control/submap_plan.h) plus 3x3 work items
+// stolen along the ring (control/work.h).
 //
 // Place in the data flow: host Database + Grid -> build_paged_image
 // (paged_database.h) -> setup: each node's arena gets its page table, home
@@ -26,8 +26,8 @@
 #include "core/grid.h"
 #include "core/render.h"
 #include "nodes/machine.h"
-#include "nodes/submap_plan.h"
-#include "nodes/work.h"
+#include "control/submap_plan.h"
+#include "control/work.h"
 #include "svm/pager.h"
 #include "svm/paged_database.h"
 
@@ -54,8 +54,8 @@ struct SvmParams {
   /// Cache as a fraction of the database's pages (--cache P%), used when > 0.
   double cache_fraction = 0;
   /// The static submaps (--submaps, --subsample): square (the paper's)
-  /// or balanced by a host estimate (nodes/submap_plan.h).
-  nodes::SubmapParams submaps;
+  /// or balanced by a host estimate (control/submap_plan.h).
+  control::SubmapParams submaps;
   bool node_aov = false;   ///< image of which node computed each pixel (the paper's Figure 6)
   bool pages_aov = false;  ///< image of the distinct pages each pixel touched
   /// Test of the no-cheating rule: node 0 reads the host's (protected)
@@ -68,12 +68,12 @@ struct SvmResult {
   core::Image node;                        ///< 1 channel: node that computed each pixel (node_aov)
   core::Image pages;                       ///< 1 channel: distinct pages touched per pixel (pages_aov)
   nodes::RunReport run;                    ///< machine counters and virtual times
-  std::vector<nodes::WorkStats> work;      ///< per node
+  std::vector<control::WorkStats> work;      ///< per node
   std::vector<core::RenderStats> tracing;  ///< per node
   std::vector<PagerStats> pager;           ///< per node
   PageLayout layout;                       ///< the shared virtual memory's layout
   std::size_t node_fixed_bytes = 0;        ///< per node: page table, mailbox, buffers, metadata
-  nodes::SubmapPlan submaps;               ///< the nodes' submaps and, if balanced, the estimate's cost
+  control::SubmapPlan submaps;               ///< the nodes' submaps and, if balanced, the estimate's cost
 
   /// Pager counters summed over the nodes.
   PagerStats pager_total() const;

@@ -6,7 +6,7 @@
 #include <doctest/doctest.h>
 
 #include "core/camera.h"
-#include "nodes/submap_plan.h"
+#include "control/submap_plan.h"
 #include "test_scenes.h"
 
 using namespace raynode;
@@ -19,7 +19,7 @@ apps::NodeRunSpec balanced_spec(nodes::ComputeClock clock) {
   spec.render.height = 32;
   spec.machine.node_memory = std::size_t(16) << 20;
   spec.machine.clock = clock;
-  spec.submaps.rule = nodes::SubmapRule::kBalanced;
+  spec.submaps.rule = control::SubmapRule::kBalanced;
   spec.submaps.subsample = 4;
   return spec;
 }
@@ -31,8 +31,8 @@ TEST_CASE("node runs: balanced submaps report their host estimate in the clock's
   const apps::NodeRunSpec spec = balanced_spec(nodes::ComputeClock::kModel);
   // The estimate the modes make: the scene's camera at the run's size.
   const core::Camera camera(core::render_view(b.db), 40, 32);
-  const nodes::PixelCostEstimate direct =
-      nodes::estimate_pixel_cost(b.db, b.grid, camera, spec.render, 4, spec.machine.cost_model);
+  const control::PixelCostEstimate direct =
+      control::estimate_pixel_cost(b.db, b.grid, camera, spec.render, 4, spec.machine.cost_model);
   REQUIRE(direct.model_s > 0);
   for (const char* mode : {"svm", "replicated"}) {
     CAPTURE(mode);
@@ -54,7 +54,7 @@ TEST_CASE("node runs: balanced submaps report their host estimate in the clock's
   CHECK(*cpu.estimate_s > 0);
   // Square submaps and dataflow have no estimate of submaps to report.
   apps::NodeRunSpec square = spec;
-  square.submaps.rule = nodes::SubmapRule::kSquare;
+  square.submaps.rule = control::SubmapRule::kSquare;
   CHECK_FALSE(apps::run_node_mode(b.db, b.grid, "svm", square, 2).estimate_s.has_value());
   CHECK_FALSE(apps::run_node_mode(b.db, b.grid, "dataflow", spec, 2).estimate_s.has_value());
 }

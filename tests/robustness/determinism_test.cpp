@@ -13,7 +13,7 @@
 #include "core/render.h"
 #include "dataflow/dataflow.h"
 #include "nodes/network.h"
-#include "nodes/replicated.h"
+#include "control/replicated.h"
 #include "robustness/compare.h"
 #include "svm/svm.h"
 #include "test_scenes.h"
@@ -64,10 +64,10 @@ TEST_CASE("determinism: sequential, shared, replicated and svm images are byte-i
         for (Schedule s : {Schedule::kDefault, Schedule::kNetwork, Schedule::kOsThreads}) {
           CAPTURE(n);
           CAPTURE(int(s));
-          nodes::ReplicatedParams p;
+          control::ReplicatedParams p;
           p.render = rp;
           p.machine = machine(n, s);
-          const nodes::ReplicatedResult r = nodes::render_replicated(b.db, b.grid, p);
+          const control::ReplicatedResult r = control::render_replicated(b.db, b.grid, p);
           CHECK(same_bytes(r.render.color, seq.color));
           CHECK(same_bytes(r.render.depth, seq.depth));
           CHECK(same_bytes(r.render.primitive, seq.primitive));

@@ -10,7 +10,7 @@
 
 #include "core/render.h"
 #include "dataflow/dataflow.h"
-#include "nodes/replicated.h"
+#include "control/replicated.h"
 #include "robustness/compare.h"
 #include "svm/svm.h"
 #include "test_scenes.h"
@@ -44,13 +44,13 @@ void check_aovs_equal(const core::RenderResult& r, const core::RenderResult& seq
   CHECK(same_bytes(r.primitive, seq.primitive));
 }
 
-nodes::ReplicatedResult run_replicated(const testing::BuiltScene& b, const core::RenderParams& rp,
+control::ReplicatedResult run_replicated(const testing::BuiltScene& b, const core::RenderParams& rp,
                                        std::uint32_t n, std::uint32_t mailbox = 0) {
-  nodes::ReplicatedParams p;
+  control::ReplicatedParams p;
   p.render = rp;
   p.machine = machine(n, mailbox);
   p.item_w = p.item_h = 1;
-  return nodes::render_replicated(b.db, b.grid, p);
+  return control::render_replicated(b.db, b.grid, p);
 }
 
 svm::SvmResult run_svm(const testing::BuiltScene& b, const core::RenderParams& rp, std::uint32_t n,
@@ -81,12 +81,12 @@ TEST_CASE("exhausted: 64 nodes on a 4x4 image (more nodes than pixels) give the 
   const core::RenderResult seq = core::render(b.db, b.grid, rp);
   REQUIRE(seq.stats.rays.primary == 16);
   {
-    const nodes::ReplicatedResult r = run_replicated(b, rp, 64);
+    const control::ReplicatedResult r = run_replicated(b, rp, 64);
     CHECK(same_bytes(r.render.color, seq.color));
     check_aovs_equal(r.render, seq);
     CHECK(r.render.stats.rays.total() == seq.stats.rays.total());
     std::uint64_t pixels = 0;
-    for (const nodes::WorkStats& w : r.work) pixels += w.pixels;
+    for (const control::WorkStats& w : r.work) pixels += w.pixels;
     CHECK(pixels == 16);
   }
   {
@@ -115,7 +115,7 @@ TEST_CASE("exhausted: a 1x1 image gives the sequential pixel in every mode for 1
     for (std::uint32_t n : {1u, 2u, 16u}) {
       CAPTURE(name);
       CAPTURE(n);
-      const nodes::ReplicatedResult rep = run_replicated(b, rp, n);
+      const control::ReplicatedResult rep = run_replicated(b, rp, n);
       CHECK(same_bytes(rep.render.color, seq.color));
       check_aovs_equal(rep.render, seq);
       const svm::SvmResult sv = run_svm(b, rp, n, n == 1 ? 0 : 1, 256);
@@ -134,7 +134,7 @@ TEST_CASE("exhausted: 1-slot mailboxes in replicated and svm mode still give the
   const core::RenderResult seq = core::render(b.db, b.grid, rp);
   for (std::uint32_t n : {2u, 7u, 32u}) {
     CAPTURE(n);
-    const nodes::ReplicatedResult rep = run_replicated(b, rp, n, 1);
+    const control::ReplicatedResult rep = run_replicated(b, rp, n, 1);
     CHECK(same_bytes(rep.render.color, seq.color));
     const svm::SvmResult sv = run_svm(b, rp, n, 1, 128, 1);
     CHECK(same_bytes(sv.render.color, seq.color));
@@ -167,12 +167,12 @@ TEST_CASE("exhausted: both mail wake-ups, 1-slot mailboxes included, give the se
     for (std::uint32_t mailbox : {0u, 1u}) {
       CAPTURE(n);
       CAPTURE(mailbox);
-      nodes::ReplicatedParams rep;
+      control::ReplicatedParams rep;
       rep.render = rp;
       rep.machine = machine(n, mailbox);
       rep.machine.scheduled_mail = true;
       rep.item_w = rep.item_h = 1;
-      const nodes::ReplicatedResult r = nodes::render_replicated(b.db, b.grid, rep);
+      const control::ReplicatedResult r = control::render_replicated(b.db, b.grid, rep);
       CHECK(same_bytes(r.render.color, seq.color));
       CHECK(r.run.scheduled_mail);
       CHECK(r.run.service_grants > 0);  // sleeping nodes' mail was served by the scheduler

@@ -25,7 +25,7 @@
 #include "core/spd.h"
 #include "core/validate.h"
 #include "dataflow/dataflow.h"
-#include "nodes/replicated.h"
+#include "control/replicated.h"
 #include "svm/svm.h"
 
 using namespace raynode;
@@ -85,10 +85,10 @@ std::vector<std::pair<const char*, core::Image>> render_all_modes(const core::Da
   shared.tile_size = 8;
   out.emplace_back("shared", core::render(db, grid, shared).color);
 #endif
-  nodes::ReplicatedParams rep;
+  control::ReplicatedParams rep;
   rep.render = rp;
   rep.machine = small_machine(3);
-  out.emplace_back("replicated", nodes::render_replicated(db, grid, rep).render.color);
+  out.emplace_back("replicated", control::render_replicated(db, grid, rep).render.color);
   svm::SvmParams sv;
   sv.render = rp;
   sv.machine = small_machine(3);

@@ -90,8 +90,8 @@ TEST_CASE("svm: with half or nearest work grants (--work-grants), or requests of
           CHECK(r.run.work_grants == nodes::work_grant_name(grant));
           CHECK(testing::same_bytes(r.render.color, seq.color));
           CHECK(r.pager_total().pixels == std::uint64_t(rp.width * rp.height));
-          nodes::WorkStats w;
-          for (const nodes::WorkStats& s : r.work) w += s;
+          control::WorkStats w;
+          for (const control::WorkStats& s : r.work) w += s;
           CHECK(w.pixels == std::uint64_t(rp.width * rp.height));
           CHECK(w.items_received >= w.grants_given);
           if (route == nodes::WorkRequestRoute::kOff) CHECK(w.requests_sent + w.grants_given == 0);
@@ -111,13 +111,13 @@ TEST_CASE("svm: balanced submaps (--submaps balanced) keep the sequential image 
       SvmParams p = small_params(n, cache);
       p.render = rp;
       p.page_size = 256;
-      p.submaps.rule = nodes::SubmapRule::kBalanced;
+      p.submaps.rule = control::SubmapRule::kBalanced;
       const SvmResult r = render_svm(b.db, b.grid, p);
       CHECK(testing::same_bytes(r.render.color, seq.color));
       CHECK(r.pager_total().pixels == std::uint64_t(rp.width * rp.height));
       REQUIRE(r.submaps.rects.size() == n);
       std::int64_t area = 0;
-      for (const nodes::Rect& m : r.submaps.rects) area += m.area();
+      for (const control::Rect& m : r.submaps.rects) area += m.area();
       CHECK(area == std::int64_t(rp.width) * rp.height);
       CHECK(r.submaps.estimate.pixels == 5u * 5u);  // one per 8x8 block
       CHECK(r.submaps.estimate.rays >= r.submaps.estimate.pixels);

@@ -1,4 +1,4 @@
-#include "nodes/replicated.h"
+#include "control/replicated.h"
 
 #include <fmt/core.h>
 
@@ -10,10 +10,10 @@
 #include "core/camera.h"
 #include "core/direct_view.h"
 #include "core/shade.h"
-#include "nodes/image_frame.h"
-#include "nodes/pixel_record.h"
+#include "control/image_frame.h"
+#include "control/pixel_record.h"
 
-namespace raynode::nodes {
+namespace raynode::control {
 
 namespace {
 
@@ -148,4 +148,4 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
   return out;
 }
 
-}  // namespace raynode::nodes
+}  // namespace raynode::control

@@ -1,4 +1,4 @@
-#include "nodes/work.h"
+#include "control/work.h"
 
 #include <fmt/core.h>
 
@@ -10,7 +10,7 @@
 #include <utility>
 #include <stdexcept>
 
-namespace raynode::nodes {
+namespace raynode::control {
 
 namespace {
 
@@ -496,4 +496,4 @@ std::uint64_t gather_pixels(
   return pixels;
 }
 
-}  // namespace raynode::nodes
+}  // namespace raynode::control

@@ -1,10 +1,10 @@
-#include "nodes/image_frame.h"
+#include "control/image_frame.h"
 
 #include <fmt/core.h>
 
 #include <stdexcept>
 
-namespace raynode::nodes {
+namespace raynode::control {
 
 namespace {
 
@@ -50,4 +50,4 @@ void assemble_pixels(NodeContext& host, const PixelLayout& layout, core::RenderR
   });
 }
 
-}  // namespace raynode::nodes
+}  // namespace raynode::control

@@ -20,10 +20,10 @@
 #include "core/image.h"
 #include "core/render.h"
 #include "nodes/node.h"
-#include "nodes/pixel_record.h"
-#include "nodes/work.h"
+#include "control/pixel_record.h"
+#include "control/work.h"
 
-namespace raynode::nodes {
+namespace raynode::control {
 
 /// A frame's size in pixels and its camera.
 struct ImageFrame {
@@ -101,4 +101,4 @@ struct ExtraChannel {
 void assemble_pixels(NodeContext& host, const PixelLayout& layout, core::RenderResult& out, core::Image& node_aov,
                      std::atomic<std::uint64_t>* progress, std::span<const ExtraChannel> extra = {});
 
-}  // namespace raynode::nodes
+}  // namespace raynode::control

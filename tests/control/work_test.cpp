@@ -8,9 +8,10 @@
 #include <vector>
 
 #include "nodes/machine.h"
-#include "nodes/work.h"
+#include "control/work.h"
 
 using namespace raynode::nodes;
+using namespace raynode::control;
 
 TEST_CASE("work: submaps cover every pixel exactly once, near-equal and no thinner than 1:3.1, for any node count") {
   for (auto [w, h] : {std::pair{512, 512}, std::pair{640, 480}, std::pair{37, 5}})

@@ -14,7 +14,7 @@
 
 #include "core/render.h"
 
-namespace raynode::nodes {
+namespace raynode::control {
 
 struct PixelLayout {
   std::uint32_t channels = 3;  ///< floats per pixel
@@ -52,4 +52,4 @@ struct PixelLayout {
   }
 };
 
-}  // namespace raynode::nodes
+}  // namespace raynode::control

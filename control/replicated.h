@@ -20,10 +20,10 @@
 #include "core/grid.h"
 #include "core/render.h"
 #include "nodes/machine.h"
-#include "nodes/submap_plan.h"
-#include "nodes/work.h"
+#include "control/submap_plan.h"
+#include "control/work.h"
 
-namespace raynode::nodes {
+namespace raynode::control {
 
 struct ReplicatedParams {
   core::RenderParams render;  ///< resolution, spp, depth, AOVs (mode and tile size ignored)
@@ -53,4 +53,4 @@ std::size_t replicated_bytes_per_node(const core::Database& db, const core::Grid
 /// failures inside the run; std::invalid_argument for bad parameters.
 ReplicatedResult render_replicated(const core::Database& db, const core::Grid& grid, const ReplicatedParams& params);
 
-}  // namespace raynode::nodes
+}  // namespace raynode::control

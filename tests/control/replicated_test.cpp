@@ -9,12 +9,13 @@
 #include "core/grid.h"
 #include "core/render.h"
 #include "core/spd.h"
-#include "nodes/replicated.h"
-#include "nodes/submap_plan.h"
+#include "control/replicated.h"
+#include "control/submap_plan.h"
 #include "test_scenes.h"
 
 using namespace raynode;
 using namespace raynode::nodes;
+using namespace raynode::control;
 
 namespace {
 /// n nodes of 8 MiB rendering `rp`, with a watchdog (a hang fails the test).

@@ -38,7 +38,36 @@
 #include "nodes/machine.h"
 #include "nodes/node.h"
 
-namespace raynode::nodes {
+namespace raynode::control {
+
+// The emulated machine's names the control-oriented modes speak in (nodes/).
+using nodes::Arena;
+using nodes::ArenaArray;
+using nodes::ArenaExhausted;
+using nodes::Awaited;
+using nodes::ComputeClock;
+using nodes::copy_to_arena;
+using nodes::DoesNotFit;
+using nodes::format_bytes;
+using nodes::kHost;
+using nodes::kMaxNodes;
+using nodes::Machine;
+using nodes::MachineParams;
+using nodes::Mailbox;
+using nodes::Message;
+using nodes::message_type_name;
+using nodes::MessageType;
+using nodes::node_name;
+using nodes::NodeContext;
+using nodes::NodeError;
+using nodes::NodeId;
+using nodes::RunAborted;
+using nodes::RunReport;
+using nodes::Topology;
+using nodes::WaitKind;
+using nodes::WaitReason;
+using nodes::WorkGrant;
+using nodes::WorkRequestRoute;
 
 /// A pixel rectangle [x0, x1) x [y0, y1).
 struct Rect {
@@ -228,4 +257,4 @@ std::uint64_t gather_pixels(
 /// Payload bytes a kPixels message of one item_w x item_h block needs.
 std::uint32_t pixels_payload_bytes(std::int32_t item_w, std::int32_t item_h, std::uint32_t channels);
 
-}  // namespace raynode::nodes
+}  // namespace raynode::control

@@ -1,4 +1,4 @@
-#include "nodes/submap_plan.h"
+#include "control/submap_plan.h"
 
 #include <fmt/core.h>
 
@@ -11,7 +11,7 @@
 #include "core/direct_view.h"
 #include "core/shade.h"
 
-namespace raynode::nodes {
+namespace raynode::control {
 
 namespace {
 
@@ -96,4 +96,4 @@ nlohmann::json SubmapPlan::to_json() const {
   return j;
 }
 
-}  // namespace raynode::nodes
+}  // namespace raynode::control

@@ -33,9 +33,9 @@
 #include "core/database.h"
 #include "core/grid.h"
 #include "core/render.h"
-#include "nodes/work.h"
+#include "control/work.h"
 
-namespace raynode::nodes {
+namespace raynode::control {
 
 /// How to cut the image (`--submaps`, `--subsample`).
 struct SubmapParams {
@@ -84,4 +84,4 @@ SubmapPlan plan_submaps(const core::Database& db, const core::Grid& grid, const 
                         const core::RenderParams& render, std::uint32_t nodes, const SubmapParams& params,
                         const core::CostModel& model);
 
-}  // namespace raynode::nodes
+}  // namespace raynode::control
