@@ -1,4 +1,4 @@
-// `raynode bench quality SCENE`: render time against image error (issue 7).
+// `raynode bench quality SCENE`: render time against image error.
 //
 // Data flow: SCENE -> one Database per --tessellate level -> one accelerator
 // per (level, --accel) (built once, build time reported apart) -> a reference

@@ -1,5 +1,5 @@
 // `raynode sweep nodes|cache|page-size SCENE`: the paper's experiments as
-// commands (issue 7). Each renders SCENE on the emulated machine for a
+// commands. Each renders SCENE on the emulated machine for a
 // series of points, writes PREFIX.csv and plots it to PREFIX.png (through
 // the embedded PREFIX.plot.py, apps/sweep_plots.h), shows one progress line
 // per run on stderr and a table on stdout.

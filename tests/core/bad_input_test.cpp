@@ -1,4 +1,4 @@
-// Bad input at the core's boundary (issue 8): what the NFF reader, the
+// Bad input at the core's boundary: what the NFF reader, the
 // default camera and the Embree oracle do with inputs that used to crash,
 // hang, allocate without bound or fail with a message naming neither the
 // place nor the numbers. Every case here was a real failure first; the fuzz
