@@ -110,6 +110,81 @@ struct NodesBenchOptions {
   std::uint32_t pack_min = 0;  ///< svm and the sequential reference: --pack-cells (off unless asked)
 };
 
+/// The sequential tracer on the bench's image: what a one-node run is
+/// compared with, the best of --repeat. The same cells as the nodes walk
+/// (object lists, or with --pack-cells the same packed blocks); its thread
+/// CPU time is what a node's CPU clock counts as busy time. With `pairs` (1
+/// in --nodes), its runs and the one-node runs take turns (sequential, one
+/// node, sequential, ...), so that a change in the machine's speed during
+/// the bench (a VM's moves by 10-25%) reaches both sides of the ratio alike;
+/// each side keeps its best, and every pair's ratio is kept for their
+/// median (CPU clock only: under the model clock a node's time is modelled).
+struct SequentialReference {
+  double wall_s = 0, cpu_s = 0;     ///< the best sequential render's seconds
+  std::optional<NodeRun> one_node;  ///< the best one-node run, when `pairs`
+  std::vector<double> pair_ratios;  ///< per pair: the node's busy CPU time over sequential's
+};
+
+SequentialReference sequential_reference(const NodesBenchOptions& o, const core::Database& db,
+                                         const core::Grid& grid, const NodeRunSpec& spec, bool pairs) {
+  SequentialReference ref;
+  std::optional<core::CellBlocks> blocks;
+  if (o.pack_min > 0) blocks = core::build_cell_blocks(db, grid, o.pack_min);
+  const core::DirectView view(db, grid, blocks ? &*blocks : nullptr);
+  for (int i = 0; i < std::max(1, o.run.repeat); ++i) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const double c0 = nodes::thread_cpu_seconds();
+    (void)core::render_image(view, db, spec.render);
+    const double cpu = nodes::thread_cpu_seconds() - c0;
+    const double s = seconds_since(t0);
+    ref.wall_s = i == 0 ? s : std::min(ref.wall_s, s);
+    ref.cpu_s = i == 0 ? cpu : std::min(ref.cpu_s, cpu);
+    if (!pairs || (ref.one_node && !ref.one_node->fits)) continue;
+    NodeRun r = run_node_mode(db, grid, o.mode, spec, 1);
+    if (r.fits && cpu > 0 && o.run.clock == "cpu") ref.pair_ratios.push_back(r.work_s / cpu);
+    if (!ref.one_node || !r.fits || r.parallel_time_s < ref.one_node->parallel_time_s) ref.one_node = std::move(r);
+  }
+  return ref;
+}
+
+/// Prints the table's row for the best run `best` of `n` nodes (T_1 = `t1`,
+/// 0 if unknown) and returns its JSON row.
+nlohmann::json bench_row(std::FILE* report, std::uint32_t n, const NodeRun& best, double t1, bool flow,
+                         bool balanced) {
+  const double tp = best.parallel_time_s;
+  const double speedup = t1 > 0 ? t1 / tp : 0;
+  const double charged = balanced ? charged_efficiency(t1, tp, n, best.estimate_s.value_or(0)) : 0;
+  if (flow)
+    fmt::print(report, "{:>6} {:>9.3f} {:>11.5f} {:>9.2f} {:>10.3f} {:>10.4f} {:>10} {:>10.5f} {:>9.3f}\n", n, best.wall_s,
+               tp, speedup, speedup / double(n), best.work_s, best.ray_messages.value_or(0),
+               best.spill_fraction.value_or(0), best.average_load.value_or(0));
+  else
+    fmt::print(report, "{:>6} {:>9.3f} {:>11.5f} {:>9.2f} {:>10.3f} {:>10.4f} {:>8} {:>10.5f} {:>9.2f}{}\n", n, best.wall_s,
+               tp, speedup, speedup / double(n), best.work_s, best.grants.value_or(0), best.miss_ratio.value_or(-1),
+               best.pages_per_pixel.value_or(-1), balanced ? fmt::format(" {:>12.3f}", charged) : std::string());
+  nlohmann::json row = {{"nodes", n},       {"wall_s", best.wall_s},         {"parallel_time_s", tp},
+                        {"speedup", speedup}, {"efficiency", speedup / double(n)}, {"work_s", best.work_s},
+                        {"rays", best.rays}};
+  if (flow) {
+    row["ray_messages"] = best.ray_messages.value_or(0);
+    row["spill_fraction"] = best.spill_fraction.value_or(0);
+    row["average_load"] = best.average_load.value_or(0);
+  } else {
+    row["grants"] = best.grants.value_or(0);
+    row["miss_ratio"] = best.miss_ratio.value_or(-1);
+    row["pages_per_pixel"] = best.pages_per_pixel.value_or(-1);
+  }
+  if (balanced) {
+    row["estimate_s"] = best.estimate_s.value_or(0);
+    row["efficiency_estimate_charged"] = charged;
+  }
+  if (best.communication_rate_bytes_per_s) {
+    row["page_requests"] = best.page_requests.value_or(0);
+    row["communication_rate_bytes_per_s"] = *best.communication_rate_bytes_per_s;
+  }
+  return row;
+}
+
 void run_bench_nodes(const NodesBenchOptions& o) {
   if (o.pack_min > 0 && o.mode != "svm")
     throw UsageError("--pack-cells " + std::to_string(o.pack_min) + " is for --mode svm; --mode " + o.mode +
@@ -134,37 +209,12 @@ void run_bench_nodes(const NodesBenchOptions& o) {
              o.run.submaps, o.run.work_grants, o.run.work_requests,
              o.pack_min > 0 ? fmt::format("cells of {}+ triangles packed", o.pack_min) : std::string("object lists"),
              std::thread::hardware_concurrency(), o.run.repeat);
-  // The sequential tracer on the same image: what a one-node run is compared
-  // with. The same cells as the nodes walk (object lists, or with
-  // --pack-cells the same packed blocks); its thread CPU time is what a
-  // node's CPU clock counts as busy time. With 1 in --nodes, its runs and
-  // the one-node runs take turns (sequential, one node, sequential, ...), so
-  // that a change in the machine's speed during the bench (this VM's moves
-  // by 10-25%) reaches both sides of the ratio alike; each side keeps its
-  // best, and every pair's ratio is kept for their median.
   const bool cpu_clock = o.run.clock == "cpu";  // else the node's time is modelled: no ratio to sequential's
-  double sequential_s = 0, sequential_cpu_s = 0;
-  std::optional<NodeRun> one_node;  // the best one-node run, taken in turn with sequential's
-  std::vector<double> pair_ratios;  // per pair: the node's busy CPU time over sequential's
-  {
-    std::optional<core::CellBlocks> blocks;
-    if (o.pack_min > 0) blocks = core::build_cell_blocks(db, grid, o.pack_min);
-    const core::DirectView view(db, grid, blocks ? &*blocks : nullptr);
-    const bool pairs = std::find(counts.begin(), counts.end(), 1u) != counts.end();
-    for (int i = 0; i < std::max(1, o.run.repeat); ++i) {
-      const auto t0 = std::chrono::steady_clock::now();
-      const double c0 = nodes::thread_cpu_seconds();
-      (void)core::render_image(view, db, spec.render);
-      const double cpu = nodes::thread_cpu_seconds() - c0;
-      const double s = seconds_since(t0);
-      sequential_s = i == 0 ? s : std::min(sequential_s, s);
-      sequential_cpu_s = i == 0 ? cpu : std::min(sequential_cpu_s, cpu);
-      if (!pairs || (one_node && !one_node->fits)) continue;
-      NodeRun r = run_node_mode(db, grid, o.mode, spec, 1);
-      if (r.fits && cpu > 0 && cpu_clock) pair_ratios.push_back(r.work_s / cpu);
-      if (!one_node || !r.fits || r.parallel_time_s < one_node->parallel_time_s) one_node = std::move(r);
-    }
-  }
+  const bool pairs = std::find(counts.begin(), counts.end(), 1u) != counts.end();
+  SequentialReference ref = sequential_reference(o, db, grid, spec, pairs);
+  const double sequential_s = ref.wall_s, sequential_cpu_s = ref.cpu_s;
+  std::optional<NodeRun>& one_node = ref.one_node;
+  const std::vector<double>& pair_ratios = ref.pair_ratios;
   fmt::print(report, "sequential render: {:.4f} s wall, {:.4f} s CPU{}\n", sequential_s, sequential_cpu_s,
              one_node ? " (runs taken in turn with the one-node runs)" : "");
   const bool flow = o.mode == "dataflow";
@@ -206,43 +256,11 @@ void run_bench_nodes(const NodesBenchOptions& o) {
       rows.push_back({{"nodes", n}, {"skipped", best.skipped}});
       continue;
     }
-    const double tp = best.parallel_time_s;
     if (n == 1) {
-      t1 = tp;
+      t1 = best.parallel_time_s;
       t1_work_s = best.work_s;
     }
-    const double speedup = t1 > 0 ? t1 / tp : 0;
-    const double charged = balanced ? charged_efficiency(t1, tp, n, best.estimate_s.value_or(0)) : 0;
-    if (flow)
-      fmt::print(report, "{:>6} {:>9.3f} {:>11.5f} {:>9.2f} {:>10.3f} {:>10.4f} {:>10} {:>10.5f} {:>9.3f}\n", n, best.wall_s,
-                 tp, speedup, speedup / double(n), best.work_s, best.ray_messages.value_or(0),
-                 best.spill_fraction.value_or(0), best.average_load.value_or(0));
-    else
-      fmt::print(report, "{:>6} {:>9.3f} {:>11.5f} {:>9.2f} {:>10.3f} {:>10.4f} {:>8} {:>10.5f} {:>9.2f}{}\n", n, best.wall_s,
-                 tp, speedup, speedup / double(n), best.work_s, best.grants.value_or(0), best.miss_ratio.value_or(-1),
-                 best.pages_per_pixel.value_or(-1),
-                 balanced ? fmt::format(" {:>12.3f}", charged) : std::string());
-    nlohmann::json row = {{"nodes", n},       {"wall_s", best.wall_s},         {"parallel_time_s", tp},
-                          {"speedup", speedup}, {"efficiency", speedup / double(n)}, {"work_s", best.work_s},
-                          {"rays", best.rays}};
-    if (flow) {
-      row["ray_messages"] = best.ray_messages.value_or(0);
-      row["spill_fraction"] = best.spill_fraction.value_or(0);
-      row["average_load"] = best.average_load.value_or(0);
-    } else {
-      row["grants"] = best.grants.value_or(0);
-      row["miss_ratio"] = best.miss_ratio.value_or(-1);
-      row["pages_per_pixel"] = best.pages_per_pixel.value_or(-1);
-    }
-    if (balanced) {
-      row["estimate_s"] = best.estimate_s.value_or(0);
-      row["efficiency_estimate_charged"] = charged;
-    }
-    if (best.communication_rate_bytes_per_s) {
-      row["page_requests"] = best.page_requests.value_or(0);
-      row["communication_rate_bytes_per_s"] = *best.communication_rate_bytes_per_s;
-    }
-    rows.push_back(std::move(row));
+    rows.push_back(bench_row(report, n, best, t1, flow, balanced));
     if (!o.json_path.empty()) files.update(json_out, json_doc());
   }
   if (t1 == 0) fmt::print(report, "(no 1-node run in --nodes: speedup needs T_1)\n");
