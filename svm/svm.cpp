@@ -135,6 +135,91 @@ std::uint32_t cache_frames_for(const PageLayout& layout, const SvmParams& params
   return std::uint32_t(want);
 }
 
+namespace {
+
+/// The host's paged image of `db` (with --pack-cells, the packed cells'
+/// triangle blocks paged too), its cell directory in `order`.
+PagedImage page_database(const core::Database& db, const core::Grid& grid, const SvmParams& params,
+                         DirectoryOrder order) {
+  if (params.pack_min == 0) return build_paged_image(db, grid, params.page_size, nullptr, order);
+  const core::CellBlocks blocks = core::build_cell_blocks(db, grid, params.pack_min);
+  return build_paged_image(db, grid, params.page_size, &blocks, order);
+}
+
+/// A node's bytes besides its home pages and cache frames: mailbox, receive
+/// buffer, page table, pager, materials, lights, pixel batch, scratch, the
+/// bricked directory's key tables, parked messages and the work farm.
+std::size_t node_fixed_bytes(const nodes::MachineParams& m, const PageLayout& layout, const RunInput& in,
+                             std::span<const Rect> submaps, const SvmParams& params) {
+  return nodes::Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload + pager_table_bytes(layout, 0) +
+         sizeof(Pager) + in.materials.size_bytes() + in.lights.size_bytes() + control::PixelBatch::bytes(m.max_payload) +
+         sizeof(core::ShadingScratch) +
+         (layout.directory_order == DirectoryOrder::kBricked ? core::CellKeyTables::words(in.grid) * sizeof(std::int32_t)
+                                                             : 0) +
+         message_reserve(m.max_payload) + control::work_farm_bytes(m.work_grant, submaps, params.item_w, params.item_h);
+}
+
+/// A node's state in its arena, loaded by the host (outside virtual time):
+/// the metadata, the bricked directory's key tables, its buffers, and its
+/// pager with `cache_frames` frames and its home pages copied in; its pixel
+/// batch holds one message of `max_payload` bytes.
+std::unique_ptr<NodeState> make_node_state(NodeContext& ctx, const RunInput& in, const core::RenderParams& rp,
+                                           const Rect& submap, const core::CostModel& cost_model,
+                                           std::uint32_t cache_frames, std::uint32_t max_payload) {
+  nodes::Arena& a = ctx.arena();
+  const PageLayout& layout = in.image->layout;
+  auto s = std::make_unique<NodeState>(in.grid, in.camera, in.background, rp, submap);
+  s->arena = &a;
+  s->materials = nodes::copy_to_arena(a, in.materials, "the materials");
+  s->lights = nodes::copy_to_arena(a, in.lights, "the lights");
+  if (layout.directory_order == DirectoryOrder::kBricked) {
+    s->cell_keys = nodes::ArenaArray<std::int32_t>(a, core::CellKeyTables::words(in.grid), "the cell key tables");
+    s->cell_order = core::CellKeyTables::build(in.grid, layout.bricks, s->cell_keys.span());
+  }
+  s->batch = control::PixelBatch(a, max_payload);
+  s->scratch = a.create<core::ShadingScratch>("its tracing scratch");
+  s->cost_model = cost_model;
+  s->pager = a.create<Pager>("its pager", ctx, layout, cache_frames);
+  for (std::uint32_t p = ctx.id(); p < layout.pages; p += ctx.node_count())
+    std::memcpy(s->pager->home_frame(p), in.image->page(p).data(), layout.page_size);
+  return s;
+}
+
+/// A node's side of the frame: the work farm over its submap, each pixel
+/// traced through its pager (PagedView, or BrickedPagedView for a bricked
+/// directory), the pages each pixel touched in `pages_channel` (when >= 0),
+/// and the pager serving the page requests of other nodes between items.
+void run_node(NodeContext& ctx, NodeState& s, const control::PixelLayout& pixel_layout, int pages_channel,
+              int item_w, int item_h) {
+  Pager& pager = *s.pager;
+  const core::ShadingContext shading = core::make_shading_context(
+      std::span<const core::Light>(s.lights.span()), s.background, s.render.max_depth, s.render.min_weight);
+  ctx.set_work_meter(&NodeState::work_seconds, &s);
+  const control::PixelJob job{shading, s.camera, s.render.spp, s.render.any_aov(), pixel_layout, *s.scratch, s.batch};
+  // The pages each pixel touched (--aov pages), and the pager's end of a work item.
+  struct Hooks {
+    Pager& pager;
+    int pages_channel;
+    void begin_pixel() { pager.begin_pixel(); }
+    void after_pixel(float* o) {
+      if (pages_channel >= 0) o[pages_channel] = float(pager.pixel_pages());
+    }
+    void end_item() { pager.end_pixel(); }
+  };
+  const control::OtherMessageHandler serve = [&](NodeContext&, const nodes::Message& msg) { return pager.serve(msg); };
+  auto farm = [&](const auto& view) {
+    return control::render_items(ctx, s.submap, item_w, item_h, view, job, Hooks{pager, pages_channel}, serve);
+  };
+  s.work = pager.layout().directory_order == DirectoryOrder::kBricked
+               ? farm(BrickedPagedView(pager, s.grid, s.materials.span(), s.cell_order))
+               : farm(PagedView(pager, s.grid, s.materials.span()));
+  s.stats = s.scratch->stats;
+  s.stats.traversal = s.scratch->traversal.stats;
+  s.pager_stats = pager.stats();
+}
+
+}  // namespace
+
 SvmResult render_svm(const core::Database& db, const core::Grid& grid, const SvmParams& params) {
   const core::RenderParams& rp = params.render;
   const control::ImageFrame frame = control::image_frame(db, rp, params.item_w, params.item_h);
@@ -147,11 +232,7 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
   // With --pack-cells, the packed cells' triangle blocks are paged too.
   const DirectoryOrder order = params.directory_order.value_or(
       params.machine.nodes > 1 ? DirectoryOrder::kBricked : DirectoryOrder::kLinear);
-  PagedImage image = [&] {
-    if (params.pack_min == 0) return build_paged_image(db, grid, params.page_size, nullptr, order);
-    const core::CellBlocks blocks = core::build_cell_blocks(db, grid, params.pack_min);
-    return build_paged_image(db, grid, params.page_size, &blocks, order);
-  }();
+  PagedImage image = page_database(db, grid, params, order);
   const RunInput in{&image, grid.info, db.materials, db.lights, db.background, frame.camera};
   const PageLayout& layout = image.layout;
 
@@ -169,12 +250,7 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
   // its estimate over `db` and `grid`, outside virtual time).
   out.submaps = control::plan_submaps(db, grid, in.camera, rp, m.nodes, params.submaps, m.cost_model);
   const std::vector<Rect>& submaps = out.submaps.rects;
-  out.node_fixed_bytes = nodes::Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload +
-                         pager_table_bytes(layout, 0) + sizeof(Pager) + in.materials.size_bytes() +
-                         in.lights.size_bytes() + control::PixelBatch::bytes(m.max_payload) + sizeof(core::ShadingScratch) +
-                         (order == DirectoryOrder::kBricked ? core::CellKeyTables::words(in.grid) * sizeof(std::int32_t) : 0) +
-                         message_reserve(m.max_payload) +
-                         control::work_farm_bytes(m.work_grant, submaps, params.item_w, params.item_h);
+  out.node_fixed_bytes = node_fixed_bytes(m, layout, in, submaps, params);
   // Fail before starting, with the sizes, when a node cannot hold its part.
   std::vector<std::uint32_t> cache(m.nodes);
   SvmParams sized = params;
@@ -196,58 +272,16 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
   core::CostModel cost_model = m.cost_model;
   if (m.network.fault_s >= 0) cost_model.unit_s[std::size_t(core::CostFeature::kPageFault)] = m.network.fault_s;
   auto setup = [&](NodeContext& ctx) {
-    nodes::Arena& a = ctx.arena();
-    auto s = std::make_unique<NodeState>(in.grid, in.camera, in.background, rp, submaps[ctx.id()]);
-    s->arena = &a;
-    s->materials = nodes::copy_to_arena(a, in.materials, "the materials");
-    s->lights = nodes::copy_to_arena(a, in.lights, "the lights");
-    if (layout.directory_order == DirectoryOrder::kBricked) {
-      s->cell_keys = nodes::ArenaArray<std::int32_t>(a, core::CellKeyTables::words(in.grid), "the cell key tables");
-      s->cell_order = core::CellKeyTables::build(in.grid, layout.bricks, s->cell_keys.span());
-    }
-    s->batch = control::PixelBatch(a, m.max_payload);
-    s->scratch = a.create<core::ShadingScratch>("its tracing scratch");
-    s->cost_model = cost_model;
-    s->pager = a.create<Pager>("its pager", ctx, layout, cache[ctx.id()]);
-    for (std::uint32_t p = ctx.id(); p < layout.pages; p += m.nodes)
-      std::memcpy(s->pager->home_frame(p), in.image->page(p).data(), layout.page_size);
-    states[ctx.id()] = std::move(s);
+    states[ctx.id()] = make_node_state(ctx, in, rp, submaps[ctx.id()], cost_model, cache[ctx.id()], m.max_payload);
     if (ctx.id() + 1 == m.nodes) host_pages.protect();
   };
 
   auto node_main = [&](NodeContext& ctx) {
-    NodeState& s = *states[ctx.id()];
-    Pager& pager = *s.pager;
     if (params.debug_read_host_image && ctx.id() == 0) {
       volatile const std::byte* cheat = in.image->pages.data();
       (void)*cheat;  // must fault: the image is protected
     }
-    const core::ShadingContext shading = core::make_shading_context(
-        std::span<const core::Light>(s.lights.span()), s.background, s.render.max_depth, s.render.min_weight);
-    ctx.set_work_meter(&NodeState::work_seconds, &s);
-    const control::PixelJob job{shading, s.camera, s.render.spp, s.render.any_aov(), pixel_layout, *s.scratch, s.batch};
-    // The pages each pixel touched (--aov pages), and the pager's end of a work item.
-    struct Hooks {
-      Pager& pager;
-      int pages_channel;
-      void begin_pixel() { pager.begin_pixel(); }
-      void after_pixel(float* o) {
-        if (pages_channel >= 0) o[pages_channel] = float(pager.pixel_pages());
-      }
-      void end_item() { pager.end_pixel(); }
-    };
-    const control::OtherMessageHandler serve = [&](NodeContext&, const nodes::Message& msg) { return pager.serve(msg); };
-    // The work farm over this node's view (linear or bricked directory).
-    auto farm = [&](const auto& view) {
-      return control::render_items(ctx, s.submap, params.item_w, params.item_h, view, job, Hooks{pager, pages_channel},
-                                 serve);
-    };
-    s.work = layout.directory_order == DirectoryOrder::kBricked
-                 ? farm(BrickedPagedView(pager, s.grid, s.materials.span(), s.cell_order))
-                 : farm(PagedView(pager, s.grid, s.materials.span()));
-    s.stats = s.scratch->stats;
-    s.stats.traversal = s.scratch->traversal.stats;
-    s.pager_stats = pager.stats();
+    run_node(ctx, *states[ctx.id()], pixel_layout, pages_channel, params.item_w, params.item_h);
   };
 
   auto host_main = [&](NodeContext& host) {
