@@ -443,42 +443,26 @@ std::string csv_text(const QualityOptions& o, int w, int h, const std::vector<Me
   return out;
 }
 
-void run_quality(QualityOptions o) {
-  // Everything the user typed is checked before the first render.
-  const Knobs knobs = parse_knobs(o);
-  const std::vector<Settings> design = make_design(o.design, knobs, o.max_points);
-  if (o.full) o.width = o.height = 512;
-  if (o.check_depth == 0) o.check_depth = std::min(64, o.reference_depth + 8);
-  if (o.check_depth == o.reference_depth)
-    throw UsageError(fmt::format("--check-depth must differ from --reference-depth ({})", o.reference_depth));
-  const std::string prefix = o.output.empty() ? default_prefix(o.scene) : o.output;
-  // The outputs are checked before the first render; the CSV then holds
-  // every point measured so far, so an interrupted run keeps them.
-  OutputFiles files(core::is_scene_file(o.scene) ? std::vector<std::string>{o.scene} : std::vector<std::string>{});
-  const std::size_t csv_out = files.add(prefix + ".csv", "CSV", true);
-  files.add(prefix + ".png", "plot", false);  // drawn by the plot script; checked here
-  const bool show = !o.quiet;
-  const int max_spp = *std::max_element(knobs.spp.begin(), knobs.spp.end());
-  const int max_depth = *std::max_element(knobs.max_depth.begin(), knobs.max_depth.end());
-  if (max_spp >= o.reference_spp)
-    fmt::print(stderr,
-               "raynode: warning: --spp {} is not below --reference-spp {}: the reference no longer resolves that "
-               "point's aliasing\n",
-               max_spp, o.reference_spp);
-  if (max_depth >= o.reference_depth)
-    fmt::print(stderr, "raynode: warning: --max-depth {} is not below --reference-depth {}\n", max_depth,
-               o.reference_depth);
+/// The sweep's reference image and how far its own depth limit could move
+/// a measured error.
+struct Reference {
+  core::Image image;
+  double seconds = 0;    ///< the reference render's wall seconds
+  double stability = 0;  ///< RMSE between renders at --reference-depth and --check-depth (at --check-spp)
+  double check_s = 0;    ///< the stability check's wall seconds
+};
 
-  std::map<int, Prepared> cache;
-  core::RenderParams base;
-  base.width = o.width;
-  base.height = o.height;
-
-  // The reference: deep, unpruned, analytic, supersampled, grid. Rendered in
-  // shared mode (all cores) to save time: its image is bit-identical to
-  // sequential mode's (core/render.h); its time is not part of the sweep.
-  const auto t_all = std::chrono::steady_clock::now();
-  Prepared& analytic = prepare(cache, o.scene, o.view, 0, "grid", grid_kind_for(o.grid));
+/// The reference: deep, unpruned, analytic, supersampled, grid. Rendered in
+/// shared mode (all cores) to save time: its image is bit-identical to
+/// sequential mode's (core/render.h); its time is not part of the sweep.
+/// Stability: the reference's depth against a deeper one, at --check-spp.
+/// At 1 sample per pixel the check compares single samples, whose
+/// differences averaging over N x N samples can only shrink (in
+/// expectation): a conservative check, N^2 times cheaper than at the
+/// reference's spp, which matters where glass makes the ray tree grow
+/// (mount:6 at max-depth 24 costs 27 times as much as at 16).
+Reference render_reference(const QualityOptions& o, Prepared& analytic, const core::RenderParams& base, bool show) {
+  Reference r;
   core::RenderParams ref_params = base;
   ref_params.spp = o.reference_spp;
   ref_params.max_depth = o.reference_depth;
@@ -487,14 +471,7 @@ void run_quality(QualityOptions o) {
   if (show)
     fmt::print(stderr, "bench quality: reference {}x{}, spp {}x{}, max-depth {}, min-weight 0, analytic, grid...\n",
                o.width, o.height, o.reference_spp, o.reference_spp, o.reference_depth);
-  double ref_s = 0, check_s = 0;
-  const core::Image reference = render_timed(analytic, "grid", ref_params, ref_s).color;
-  // Stability: the reference's depth against a deeper one, at --check-spp.
-  // At 1 sample per pixel the check compares single samples, whose
-  // differences averaging over N x N samples can only shrink (in
-  // expectation): a conservative check, N^2 times cheaper than at the
-  // reference's spp, which matters where glass makes the ray tree grow
-  // (mount:6 at max-depth 24 costs 27 times as much as at 16).
+  r.image = render_timed(analytic, "grid", ref_params, r.seconds).color;
   core::RenderParams shallow_params = ref_params;
   shallow_params.spp = o.check_spp;
   core::RenderParams deep_params = shallow_params;
@@ -502,20 +479,27 @@ void run_quality(QualityOptions o) {
   double shallow_s = 0;
   core::Image shallow_image;
   if (o.check_spp != o.reference_spp) shallow_image = render_timed(analytic, "grid", shallow_params, shallow_s).color;
-  const core::Image& shallow = o.check_spp == o.reference_spp ? reference : shallow_image;
-  const double stability = rmse(render_timed(analytic, "grid", deep_params, check_s).color, shallow);
+  const core::Image& shallow = o.check_spp == o.reference_spp ? r.image : shallow_image;
+  r.stability = rmse(render_timed(analytic, "grid", deep_params, r.check_s).color, shallow);
+  r.check_s += shallow_s;
   if (show)
     fmt::print(stderr,
                "bench quality: reference {:.2f} s, stability check (max-depth {} vs {}, spp {}) {:.2f} s: RMSE {:.3g}\n",
-               ref_s, o.reference_depth, o.check_depth, o.check_spp, check_s + shallow_s, stability);
+               r.seconds, o.reference_depth, o.check_depth, o.check_spp, r.check_s, r.stability);
+  return r;
+}
 
-  // The sweep, in rounds: round 1 renders every point once (its image gives
-  // the error and the ray count, its time plans the repeats); each later
-  // round renders again every point that still needs renders (at least
-  // --repeat in all, more until --min-time is spent), keeping the fastest.
-  // Interleaving the repeats spreads a burst of load from other processes
-  // over many points instead of spoiling every render of one; the minimum
-  // filters it out (noise only ever adds time).
+/// Measures every point of `design` against `reference`, in rounds: round 1
+/// renders every point once (its image gives the error and the ray count,
+/// its time plans the repeats); each later round renders again every point
+/// that still needs renders (at least --repeat in all, more until
+/// --min-time is spent), keeping the fastest. Interleaving the repeats
+/// spreads a burst of load from other processes over many points instead
+/// of spoiling every render of one; the minimum filters it out (noise only
+/// ever adds time). The CSV is replaced after every point and round.
+std::vector<Measured> measure_points(const QualityOptions& o, const std::vector<Settings>& design,
+                                     std::map<int, Prepared>& cache, const core::RenderParams& base,
+                                     const core::Image& reference, OutputFiles& files, std::size_t csv_out, bool show) {
   std::vector<Measured> points(design.size());
   std::vector<Prepared*> prepared(design.size());
   std::vector<core::RenderParams> params(design.size(), base);
@@ -590,6 +574,13 @@ void run_quality(QualityOptions o) {
     files.update(csv_out, csv_text(o, o.width, o.height, points));
   }
 
+  return points;
+}
+
+/// Prints the table of `points`, the Pareto front (whose members it marks
+/// in `points`) and what it says of the default; returns the smallest
+/// non-zero error measured.
+double print_table(const QualityOptions& o, std::vector<Measured>& points) {
   // The front compares errors to kFrontDigits significant digits (as the
   // table prints them): two renders whose errors differ in the fourth digit
   // (e.g. grid vs Embree picking another primitive at a few grazing pixels)
@@ -597,11 +588,11 @@ void run_quality(QualityOptions o) {
   std::vector<CostPoint> costs;
   for (const Measured& m : points) costs.push_back({m.time_s, round_significant(m.rmse, kFrontDigits)});
   for (std::size_t i : pareto_front(costs)) points[i].on_front = true;
-  const Measured& def = points.front();  // make_design puts the default first
   double smallest = INFINITY;
   for (const Measured& m : points)
     if (m.rmse > 0) smallest = std::min(smallest, m.rmse);
 
+  const Measured& def = points.front();  // make_design puts the default first
   // The table.
   fmt::print("bench quality {}: {}x{}, mode {} ({}); time = best render wall time of at least {} renders and "
              "at least {:g} s per point (n = renders timed); accelerator build excluded (build s: once per "
@@ -644,10 +635,17 @@ void run_quality(QualityOptions o) {
   fmt::print("Error: RMSE over all pixels and RGB channels of the linear float image (before clamping or 8-bit "
              "quantisation); PSNR = 20 log10({:.1f} / RMSE) dB.\n",
              kPsnrPeak);
+  return smallest;
+}
+
+/// Prints the reference's description and how stable it is against a
+/// deeper one, relative to the smallest error measured.
+void print_reference(const QualityOptions& o, const Reference& ref, double smallest) {
   fmt::print("Reference: {}x{}, spp {}x{} = {} samples, max-depth {}, min-weight 0, analytic (tessellate 0), grid; "
              "{:.2f} s (shared mode, same image as sequential).\n",
              o.width, o.height, o.reference_spp, o.reference_spp, o.reference_spp * o.reference_spp,
-             o.reference_depth, ref_s);
+             o.reference_depth, ref.seconds);
+  const double stability = ref.stability;
   // RMSE is a norm, so (triangle inequality) a point's RMSE against the
   // reference and against a deeper reference differ by at most their
   // distance: `stability` bounds how far the reference's own depth limit can
@@ -669,8 +667,11 @@ void run_quality(QualityOptions o) {
   else
     verdict = "NOT stable: the reference is not converged in depth; raise --reference-depth";
   fmt::print("Reference stability: {} -> {}.\n", stability_text, verdict);
+}
 
-  // CSV and plot.
+/// Writes the CSV and draws the plot (or, with --no-plot, leaves its script).
+void write_outputs(const QualityOptions& o, const std::string& prefix, const std::vector<Measured>& points,
+                   double stability, OutputFiles& files, std::size_t csv_out) {
   const std::string csv_path = prefix + ".csv", png_path = prefix + ".png";
   files.text(csv_out, csv_text(o, o.width, o.height, points));
   files.commit();
@@ -695,6 +696,46 @@ void run_quality(QualityOptions o) {
     if (plot.ran) fmt::print("Plot: {}\n", png_path);
     else fmt::print("Plot not made ({}); the CSV stands. To plot later: {}\n", plot.message, plot.command);
   }
+}
+
+void run_quality(QualityOptions o) {
+  // Everything the user typed is checked before the first render.
+  const Knobs knobs = parse_knobs(o);
+  const std::vector<Settings> design = make_design(o.design, knobs, o.max_points);
+  if (o.full) o.width = o.height = 512;
+  if (o.check_depth == 0) o.check_depth = std::min(64, o.reference_depth + 8);
+  if (o.check_depth == o.reference_depth)
+    throw UsageError(fmt::format("--check-depth must differ from --reference-depth ({})", o.reference_depth));
+  const std::string prefix = o.output.empty() ? default_prefix(o.scene) : o.output;
+  // The outputs are checked before the first render; the CSV then holds
+  // every point measured so far, so an interrupted run keeps them.
+  OutputFiles files(core::is_scene_file(o.scene) ? std::vector<std::string>{o.scene} : std::vector<std::string>{});
+  const std::size_t csv_out = files.add(prefix + ".csv", "CSV", true);
+  files.add(prefix + ".png", "plot", false);  // drawn by the plot script; checked here
+  const bool show = !o.quiet;
+  const int max_spp = *std::max_element(knobs.spp.begin(), knobs.spp.end());
+  const int max_depth = *std::max_element(knobs.max_depth.begin(), knobs.max_depth.end());
+  if (max_spp >= o.reference_spp)
+    fmt::print(stderr,
+               "raynode: warning: --spp {} is not below --reference-spp {}: the reference no longer resolves that "
+               "point's aliasing\n",
+               max_spp, o.reference_spp);
+  if (max_depth >= o.reference_depth)
+    fmt::print(stderr, "raynode: warning: --max-depth {} is not below --reference-depth {}\n", max_depth,
+               o.reference_depth);
+
+  std::map<int, Prepared> cache;
+  core::RenderParams base;
+  base.width = o.width;
+  base.height = o.height;
+
+  const auto t_all = std::chrono::steady_clock::now();
+  Prepared& analytic = prepare(cache, o.scene, o.view, 0, "grid", grid_kind_for(o.grid));
+  const Reference ref = render_reference(o, analytic, base, show);
+  std::vector<Measured> points = measure_points(o, design, cache, base, ref.image, files, csv_out, show);
+  const double smallest = print_table(o, points);
+  print_reference(o, ref, smallest);
+  write_outputs(o, prefix, points, ref.stability, files, csv_out);
   if (show) fmt::print(stderr, "bench quality: {} points in {}\n", points.size(), fmt_duration(seconds_since(t_all)));
 }
 
