@@ -144,6 +144,93 @@ std::string describe_waits(MachineState& state) {
   return out;
 }
 
+/// Builds every node's context and the host's (their mailboxes come out of
+/// their arenas), then runs `setup` on each node. Throws NodeError naming
+/// the node that failed (does_not_fit when its arena ran out).
+void build_participants(MachineState& state, const MachineParams& params, const Machine::Main& setup) {
+  const std::uint32_t n = params.nodes;
+  try {
+    state.nodes.reserve(n);
+    for (NodeId i = 0; i < n; ++i)
+      state.nodes.push_back(
+          std::make_unique<NodeContext>(state, i, params.node_memory, params.mailbox_capacity, params.max_payload));
+    state.host = std::make_unique<NodeContext>(state, kHost, SIZE_MAX, params.host_mailbox_capacity,
+                                               params.max_payload);
+    if (setup)
+      for (NodeId i = 0; i < n; ++i) {
+        try {
+          setup(*state.nodes[i]);
+        } catch (...) {
+          throw to_node_error(i, std::current_exception());
+        }
+      }
+  } catch (const NodeError&) {
+    throw;
+  } catch (const ArenaExhausted& e) {
+    throw NodeError(e.node, e.what(), true);
+  }
+}
+
+/// Waits on `done` (under `lock`) until `all_done()`, watching the run: a
+/// stall of --stall-timeout seconds without a message, a process-wide stop
+/// request (core/stop.h) or the --timeout end it, failing it with the
+/// reason and every participant's wait.
+void watch_run(MachineState& state, const MachineParams& params, std::unique_lock<std::mutex>& lock,
+               std::condition_variable& done, const std::function<bool()>& all_done) {
+  using clock = std::chrono::steady_clock;
+  const auto start = clock::now();
+  auto last_change = start;
+  std::uint64_t last_progress = state.progress.load(std::memory_order_relaxed);
+  const double tick = params.stall_timeout_s > 0 ? std::min(0.1, params.stall_timeout_s / 4) : 0.1;
+  std::string why;
+  while (!done.wait_for(lock, std::chrono::duration<double>(tick), all_done)) {
+    const auto now = clock::now();
+    const std::uint64_t p = state.progress.load(std::memory_order_relaxed);
+    if (p != last_progress) last_progress = p, last_change = now;
+    const double stalled = std::chrono::duration<double>(now - last_change).count();
+    if (params.stall_timeout_s > 0 && stalled >= params.stall_timeout_s) {
+      why = fmt::format("no message was sent for {:.3g} s (watchdog, --stall-timeout)", stalled);
+      break;
+    }
+    if (core::stop_requested()) {
+      why = core::stop_message();
+      break;
+    }
+    if (params.timeout_s > 0 && std::chrono::duration<double>(now - start).count() >= params.timeout_s) {
+      why = fmt::format("the run did not finish within {} s (watchdog, --timeout)", params.timeout_s);
+      break;
+    }
+  }
+  if (!why.empty()) {
+    lock.unlock();
+    state.fail(kHost,
+               std::make_exception_ptr(std::runtime_error(fmt::format("{}; stopped. {}", why, describe_waits(state)))));
+  }
+}
+
+/// The report of a finished run: each participant's counters at its final
+/// clock (`final_clock`: the nodes', then the host's), T_p, the scheduler's.
+RunReport make_run_report(MachineState& state, const MachineParams& params, const std::vector<double>& final_clock) {
+  const std::uint32_t n = params.nodes;
+  RunReport report;
+  report.network = params.network.name;
+  report.topology = topology_name(params.topology);
+  report.clock = compute_clock_name(params.clock);
+  report.work_requests = work_request_route_name(params.work_request_route);
+  report.work_grants = work_grant_name(params.work_grant);
+  for (NodeId i = 0; i < n; ++i) {
+    report.nodes.push_back(make_report(*state.nodes[i], final_clock[i]));
+    const NodeReport& nr = report.nodes.back();
+    report.parallel_time_s = std::max(report.parallel_time_s, nr.work_done_s >= 0 ? nr.work_done_s : nr.clock_s);
+  }
+  report.host = make_report(*state.host, final_clock[n]);
+  report.compute_grants = state.scheduler->compute_grants();
+  report.handoffs = state.scheduler->handoffs();
+  report.service_grants = state.scheduler->service_grants();
+  report.scheduled_mail = state.scheduler->scheduled_mail();
+  return report;
+}
+
 }  // namespace
 
 RunReport Machine::run(const Main& node_main, const Main& host_main, const Main& setup, const Main& teardown) {
@@ -164,27 +251,7 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
       }
     }
   } teardown_guard{state, teardown};
-  // Build the participants; their mailboxes come out of their arenas.
-  try {
-    state.nodes.reserve(n);
-    for (NodeId i = 0; i < n; ++i)
-      state.nodes.push_back(
-          std::make_unique<NodeContext>(state, i, params_.node_memory, params_.mailbox_capacity, params_.max_payload));
-    state.host = std::make_unique<NodeContext>(state, kHost, SIZE_MAX, params_.host_mailbox_capacity,
-                                               params_.max_payload);
-    if (setup)
-      for (NodeId i = 0; i < n; ++i) {
-        try {
-          setup(*state.nodes[i]);
-        } catch (...) {
-          throw to_node_error(i, std::current_exception());
-        }
-      }
-  } catch (const NodeError&) {
-    throw;
-  } catch (const ArenaExhausted& e) {
-    throw NodeError(e.node, e.what(), true);
-  }
+  build_participants(state, params_, setup);
 
   std::mutex done_mutex;
   std::condition_variable done_cv;
@@ -225,57 +292,12 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
     std::unique_lock<std::mutex> lock(done_mutex);
     const std::uint32_t started = std::uint32_t(threads.size());
     auto all_done = [&] { return running <= (n + 1) - started; };
-    {  // always watched: a process-wide stop request (core/stop.h) ends the run too
-      using clock = std::chrono::steady_clock;
-      const auto start = clock::now();
-      auto last_change = start;
-      std::uint64_t last_progress = state.progress.load(std::memory_order_relaxed);
-      const double tick = params_.stall_timeout_s > 0 ? std::min(0.1, params_.stall_timeout_s / 4) : 0.1;
-      std::string why;
-      while (!done_cv.wait_for(lock, std::chrono::duration<double>(tick), all_done)) {
-        const auto now = clock::now();
-        const std::uint64_t p = state.progress.load(std::memory_order_relaxed);
-        if (p != last_progress) last_progress = p, last_change = now;
-        const double stalled = std::chrono::duration<double>(now - last_change).count();
-        if (params_.stall_timeout_s > 0 && stalled >= params_.stall_timeout_s) {
-          why = fmt::format("no message was sent for {:.3g} s (watchdog, --stall-timeout)", stalled);
-          break;
-        }
-        if (core::stop_requested()) {
-          why = core::stop_message();
-          break;
-        }
-        if (params_.timeout_s > 0 && std::chrono::duration<double>(now - start).count() >= params_.timeout_s) {
-          why = fmt::format("the run did not finish within {} s (watchdog, --timeout)", params_.timeout_s);
-          break;
-        }
-      }
-      if (!why.empty()) {
-        lock.unlock();
-        state.fail(kHost, std::make_exception_ptr(std::runtime_error(
-                              fmt::format("{}; stopped. {}", why, describe_waits(state)))));
-      }
-    }
+    watch_run(state, params_, lock, done_cv, all_done);
   }
   for (std::thread& t : threads) t.join();
   if (std::exception_ptr e = state.error()) throw to_node_error(state.error_node(), e);
 
-  RunReport report;
-  report.network = params_.network.name;
-  report.topology = topology_name(params_.topology);
-  report.clock = compute_clock_name(params_.clock);
-  report.work_requests = work_request_route_name(params_.work_request_route);
-  report.work_grants = work_grant_name(params_.work_grant);
-  for (NodeId i = 0; i < n; ++i) {
-    report.nodes.push_back(make_report(*state.nodes[i], final_clock[i]));
-    const NodeReport& nr = report.nodes.back();
-    report.parallel_time_s = std::max(report.parallel_time_s, nr.work_done_s >= 0 ? nr.work_done_s : nr.clock_s);
-  }
-  report.host = make_report(*state.host, final_clock[n]);
-  report.compute_grants = state.scheduler->compute_grants();
-  report.handoffs = state.scheduler->handoffs();
-  report.service_grants = state.scheduler->service_grants();
-  report.scheduled_mail = state.scheduler->scheduled_mail();
+  RunReport report = make_run_report(state, params_, final_clock);
   report.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   return report;
 }
