@@ -288,7 +288,6 @@ class Farm {
   /// Serves a message at interrupt level; returns true if it was our own
   /// request coming back (end of work).
   bool handle(const Message& m, WorkPool& pool, bool& have_grant, Rect& grant) {
-    const double at = m.header.arrival_time + ctx_.network().service_s;
     switch (m.type()) {
       case MessageType::kWorkRequest: {
         WorkRequestMsg r = m.as<WorkRequestMsg>();
@@ -298,7 +297,7 @@ class Farm {
           return true;
         }
         Rect item;
-        ctx_.charge(ctx_.network().service_s);
+        const double at = ctx_.serve_interrupt(m.header.arrival_time, ctx_.network().service_s);
         const WorkGrant rule = ctx_.work_grant();
         if (rule == WorkGrant::kHalf      ? pool.take_back_half(item)
             : rule == WorkGrant::kNearest ? pool.take_nearest(r.near_x, r.near_y, item)

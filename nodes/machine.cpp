@@ -329,6 +329,8 @@ nlohmann::json counters_json(const NodeCounters& c) {
                {"communication_s", c.communication_s},
                {"emulator_overhead_cpu_s", c.overhead_cpu_s}};
   j["full_mailbox_retries"] = c.full_mailbox_retries;
+  j["services"] = c.services;
+  j["service_wait_s"] = c.service_wait_s;
   j["backlog_peak"] = c.backlog_peak;
   return j;
 }

@@ -35,6 +35,8 @@ NodeCounters& NodeCounters::operator+=(const NodeCounters& o) {
   communication_s += o.communication_s;
   overhead_cpu_s += o.overhead_cpu_s;
   full_mailbox_retries += o.full_mailbox_retries;
+  services += o.services;
+  service_wait_s += o.service_wait_s;
   backlog_peak = std::max(backlog_peak, o.backlog_peak);
   return *this;
 }
@@ -97,6 +99,32 @@ void NodeContext::charge(double seconds) {
   sync_compute();
   clock_ += seconds;
   counters_.busy_s += seconds;
+}
+
+double NodeContext::serve_interrupt(double arrival, double seconds) {
+  ++counters_.services;
+  if (!(seconds > 0)) return arrival;  // a free service (--network none) occupies no handler time
+  // The first gap of at least `seconds` at or after `arrival`.
+  double start = arrival;
+  auto next = handler_busy_.upper_bound(start);
+  if (next != handler_busy_.begin()) start = std::max(start, std::prev(next)->second);
+  while (next != handler_busy_.end() && next->first < start + seconds) start = std::max(start, (next++)->second);
+  const double end = start + seconds;
+  // Book [start, end), merged with a busy interval it touches.
+  auto before = handler_busy_.lower_bound(start);
+  if (before != handler_busy_.begin() && std::prev(before)->second >= start) {
+    std::prev(before)->second = end;
+    before = std::prev(before);
+  } else {
+    before = handler_busy_.emplace_hint(before, start, end);
+  }
+  if (next != handler_busy_.end() && next->first <= end) {
+    before->second = next->second;
+    handler_busy_.erase(next);
+  }
+  counters_.service_wait_s += start - arrival;
+  charge(seconds);
+  return end;
 }
 
 void NodeContext::note_wait(WaitReason reason, std::int64_t a, std::int64_t b) {

@@ -18,8 +18,10 @@
 // model's latency stands for the real machine's message software); it is
 // reported as `overhead_cpu_s`. Handlers that serve a message at interrupt
 // level (a page request, a work request) use the message's arrival time:
-// they reply with send(..., depart = arrival + service) without moving the
-// clock, and charge() the service cost to the serving node.
+// serve_interrupt() queues it behind the handler's previous service, charges
+// the service cost to the serving node, and gives the reply's departure
+// (arrival, or the end of the service before, plus the service cost); the
+// reply is sent with that departure without moving the clock.
 //
 // Thread safety: a NodeContext belongs to its node's thread; only the
 // machine-wide stop and the peers' mailboxes are touched by other threads.
@@ -30,6 +32,7 @@
 #include <cstdint>
 #include <cstddef>
 #include <deque>
+#include <map>
 #include <memory>
 #include <memory_resource>
 #include <span>
@@ -115,6 +118,8 @@ struct NodeCounters {
   double communication_s = 0;  ///< blocked waiting for data
   double overhead_cpu_s = 0;   ///< CPU time in the emulator's messaging code (not in the clock)
   std::uint64_t full_mailbox_retries = 0;  ///< send() attempts that found the destination full
+  std::uint64_t services = 0;  ///< messages served at interrupt level (serve_interrupt)
+  double service_wait_s = 0;   ///< virtual seconds those messages waited for the handler (a busy home node)
   std::uint64_t backlog_peak = 0;          ///< most messages parked while a send waited
 
   MessageCounts total_sent() const;
@@ -172,6 +177,15 @@ class NodeContext {
   double last_synced_clock() const { return clock_; }
   /// Adds a modelled cost (e.g. serving a request) as busy time.
   void charge(double seconds);
+  /// Serves a message that arrived at `arrival` at interrupt level for
+  /// `seconds` (virtual): the node's one interrupt handler serves one
+  /// message at a time, so a message that arrives while another is served
+  /// waits (queueing at a busy home node). Each service takes the first gap
+  /// of the handler's timeline, at or after its arrival, long enough for it:
+  /// the node takes messages in real-time order, which need not be their
+  /// arrival order in virtual time. Charges `seconds` as busy time and
+  /// returns when the service ends: the departure time of its reply.
+  double serve_interrupt(double arrival, double seconds);
   /// Records now() as the end of this node's work (the farm calls it when
   /// its work request returns); the run's parallel time is the largest
   /// such time (or final clock, for nodes that never mark it).
@@ -338,6 +352,7 @@ class NodeContext {
   WorkMeter meter_ = nullptr;
   const void* meter_state_ = nullptr;
   double work_done_s_ = -1;
+  std::map<double, double> handler_busy_;  ///< the interrupt handler's busy intervals [start, end), disjoint (serve_interrupt)
   NodeCounters counters_;
 };
 

@@ -379,3 +379,32 @@ TEST_CASE("machine: nodes x node memory beyond the host's memory is refused befo
   p.node_memory = 16 * kMiB;  // 1 GiB in all: a sane run still starts
   CHECK_NOTHROW(Machine{p});
 }
+
+TEST_CASE("machine: a node's interrupt handler serves one message at a time, each in the first gap after its arrival") {
+  MachineParams p;
+  p.nodes = 1;
+  p.timeout_s = 60;
+  Machine machine(p);
+  std::vector<double> ends;
+  const RunReport r = machine.run(
+      [&](NodeContext& ctx) {
+        ends.push_back(ctx.serve_interrupt(1.0, 0.5));  // an idle handler: arrival + service
+        ends.push_back(ctx.serve_interrupt(1.2, 0.5));  // arrives while the first is served: queues
+        ends.push_back(ctx.serve_interrupt(0.1, 0.5));  // taken later, arrived earlier: the gap before
+        ends.push_back(ctx.serve_interrupt(0.3, 0.5));  // the gap [0.6, 1.0) is too short: after 2.0
+        ends.push_back(ctx.serve_interrupt(0.6, 0.4));  // fits [0.6, 1.0) exactly
+        ends.push_back(ctx.serve_interrupt(0.7, 0.0));  // a free service occupies nothing
+      },
+      [](NodeContext&) {});
+  REQUIRE(ends.size() == 6);
+  CHECK(ends[0] == doctest::Approx(1.5));
+  CHECK(ends[1] == doctest::Approx(2.0));
+  CHECK(ends[2] == doctest::Approx(0.6));
+  CHECK(ends[3] == doctest::Approx(2.5));
+  CHECK(ends[4] == doctest::Approx(1.0));
+  CHECK(ends[5] == doctest::Approx(0.7));
+  const NodeCounters& c = r.nodes[0].counters;
+  CHECK(c.services == 6);
+  CHECK(c.service_wait_s == doctest::Approx(0.3 + 1.7));
+  CHECK(c.busy_s >= 0.5 + 0.5 + 0.5 + 0.5 + 0.4);  // every service is charged to the server
+}
