@@ -81,7 +81,7 @@ const std::map<std::string, std::string>& option_groups() {
       // The paper's two algorithms
       {"page-size", "svm"}, {"directory-order", "svm"}, {"cache", "svm"}, {"caches", "svm"},
       {"page-sizes", "svm"},
-      {"subsample", "dataflow"}, {"partition", "dataflow"}, {"queue-capacity", "dataflow"},
+      {"subsample", "dataflow"}, {"partition", "dataflow"}, {"queue-capacity", "dataflow"}, {"send-queue", "dataflow"},
       // What is written, and when to stop
       {"output", "Output"}, {"stats", "Output"}, {"aov", "Output"}, {"json", "Output"}, {"csv", "Output"},
       {"quiet", "Output"}, {"timeout", "Output"}, {"plot", "Output"},

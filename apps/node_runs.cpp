@@ -135,6 +135,12 @@ void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) 
                  "dataflow: slots of each node's mailbox (default 1024); a ray for a full mailbox goes to the host, "
                  "which forwards it later (1 forces spills)")
         ->check(CLI::Range(1, 1 << 20));
+    c.add_option("--send-queue", o.send_queue,
+                 "dataflow: slots of each node's sending queue, where a ray waits while its destination's mailbox "
+                 "is full; a ray that finds this queue full goes to the host (the paper's \"optimistic\" deadlock "
+                 "avoidance). Default: all the node memory its region and buffers leave, as the paper's message "
+                 "queues took; with --queue-capacity 1, --send-queue 1 forces spills")
+        ->check(CLI::Range(1, 1 << 30));
   }
 }
 
@@ -231,6 +237,7 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
   s.submaps.subsample = o.subsample;
   s.partition = dataflow::parse_partition(o.partition);
   s.queue_capacity = o.queue_capacity;
+  s.send_queue = o.send_queue;
   s.repeat = o.repeat;
   return s;
 }

@@ -87,6 +87,7 @@ struct NodeRunOptions {
   int subsample = 8;                    ///< load estimate (and --submaps balanced's): one pixel per NxN block
   std::string partition = "balanced";   ///< balanced or equal
   std::uint32_t queue_capacity = 0;     ///< node mailbox slots; 0 = the mode's default
+  std::uint32_t send_queue = 0;         ///< sending queue slots; 0 = the node memory left (the paper's rule)
 };
 
 /// Which options add_node_run_options adds besides the machine's.
@@ -94,7 +95,7 @@ struct NodeRunOptionSet {
   bool experiment = true;  ///< --width, --height, --grid, --skip-empty, --timeout (per run), --repeat
   bool page_size = true;   ///< --page-size, --directory-order (svm)
   bool cache = false;      ///< --cache N|P% (svm)
-  bool dataflow = true;    ///< --partition, --queue-capacity
+  bool dataflow = true;    ///< --partition, --queue-capacity, --send-queue
 };
 
 /// The one declaration of the emulated machine's and the node modes'

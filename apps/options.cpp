@@ -265,6 +265,7 @@ const std::vector<ModeOptionRule>& mode_option_rules() {
       {"--directory-order", kSvm, "the shared virtual memory's cell directory"},
       {"--partition", kDataflow, "its regions"},
       {"--queue-capacity", kDataflow, "its ray queues"},
+      {"--send-queue", kDataflow, "its ray queues"},
   };
   return rules;
 }

@@ -21,6 +21,10 @@ using nodes::NodeContext;
 
 namespace {
 
+/// Node memory a dataflow node keeps free besides its parking room when
+/// the sending queue takes the rest (allocation slack).
+constexpr std::size_t kSendQueueSlack = 64 * 1024;
+
 /// "a 12x9x20 grid with 3456 references", or for an adaptive local grid
 /// "an adaptive grid (12x9x20 top grid, 7 sub-grids, 4321 leaf cells) with 5678 references".
 std::string grid_phrase(const RegionReport& r) {
@@ -180,6 +184,12 @@ std::unique_ptr<NodeState> make_node_state(Arena& a, const RegionDatabase& rd,
   s->contributions = ArenaArray<Contribution>(a, in.budget.contribution_slots, "its contribution buffer");
   s->first_hits = ArenaArray<FirstHitRecord>(a, in.budget.first_hit_slots, "its first-hit buffer");
   s->scratch = a.create<core::ShadingScratch>("its tracing scratch");
+  // The sending queue takes the memory left, as the paper's message queues
+  // did ("Deadlock"), but for the parking room and some slack.
+  const std::uint32_t n = std::uint32_t(in.partition.rects.size());
+  const std::size_t keep = in.budget.parking + kSendQueueSlack + SendQueue::destination_bytes(n);
+  const std::size_t left = a.available() > keep ? (a.available() - keep) / SendQueue::kSlotBytes : 0;
+  s->send_queue = SendQueue(a, in.budget.send_queue_fixed ? in.budget.send_queue_slots : std::max(in.budget.send_queue_slots, left), n);
   s->cost_model = in.cost_model;
   return s;
 }
@@ -242,7 +252,7 @@ DataflowResult render_dataflow(const core::Database& db, const core::Grid& grid,
       primaries_by_region(camera, rp.spp, samples, scene_box, frame, partition.map(), n);
 
   // Fail early, with the sizes, when a region does not fit its node.
-  const NodeBudget budget = node_budget(m, db.lights.size(), rp.max_depth, n, partition.tree.size());
+  const NodeBudget budget = node_budget(m, db.lights.size(), rp.max_depth, n, partition.tree.size(), params.send_queue_slots);
   for (std::uint32_t r = 0; r < n; ++r) {
     out.regions.push_back(report_region(r, partition, regions[r], out.estimate.cost));
     check_fits(r, out.regions[r], primaries[r].size(), budget, m);

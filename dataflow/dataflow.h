@@ -18,9 +18,13 @@
 //   ambient, light and background terms go to the host as contributions.
 //   Rays received take priority over the node's own primary rays; a ray's
 //   local descendants are finished (depth first) before the next message.
-//   host (host.h): Deadlock avoidance (the paper's "optimistic" strategy): a ray whose
-//   destination mailbox is full goes to the host, which keeps it (unbounded
-//   host memory) and forwards it as soon as the mailbox has room.
+//   Sending queue (send_queue.h): a ray whose destination mailbox is full
+//   waits in the node's sending queue, which takes the node memory left
+//   (DataflowParams::send_queue_slots); the node sends queued rays as
+//   their destinations drain and is not passive while any wait.
+//   host (host.h): Deadlock avoidance (the paper's "optimistic" strategy): a
+//   ray that finds the sending queue full goes to the host, which keeps it
+//   (unbounded host memory) and forwards it as soon as the mailbox has room.
 //   Termination: Mattern's four-counter method with waves: the host probes
 //   every node; a node answers when passive (nothing to trace, buffers
 //   flushed) with its counts of work messages sent and received; two
@@ -96,6 +100,11 @@ struct DataflowParams {
   /// default here; the CLI passes its --grid (default adaptive).
   core::GridParams grid;
   bool region_aov = false;        ///< also produce the image of the region of each primary hit
+  /// Slots of each node's sending queue (send_queue.h), where a ray waits
+  /// while its destination's mailbox is full; a ray that finds it full goes
+  /// to the host. 0: all the node memory its region and buffers leave (the
+  /// paper's message queues, "Deadlock"), at least one mailbox's worth.
+  std::size_t send_queue_slots = 0;
 };
 
 /// One region, as built and as measured.
@@ -118,7 +127,9 @@ struct RegionReport {
 /// A node's dataflow counters.
 struct NodeFlowStats {
   std::array<nodes::MessageCounts, kRayKindCount> rays_sent{};      ///< to nodes directly, by kind
-  std::array<nodes::MessageCounts, kRayKindCount> rays_spilled{};   ///< to the host (destination full), by kind
+  std::array<nodes::MessageCounts, kRayKindCount> rays_spilled{};   ///< to the host (sending queue full), by kind
+  std::uint64_t rays_queued = 0;        ///< rays that waited in the sending queue for room at their destination
+  std::uint64_t send_queue_peak = 0;    ///< most rays in the sending queue at once
   std::array<std::uint64_t, kRayKindCount> rays_received{};         ///< from nodes or the host, by kind
   std::uint64_t primaries = 0;          ///< own primary rays generated
   std::uint64_t segments = 0;           ///< ray segments traced in the region
@@ -132,7 +143,7 @@ struct NodeFlowStats {
 
 /// The host's counters.
 struct HostFlowStats {
-  std::uint64_t spilled = 0;            ///< rays received from nodes whose destination was full
+  std::uint64_t spilled = 0;            ///< rays received from nodes whose sending queue was full
   std::uint64_t forwarded = 0;          ///< of those, forwarded to their destination
   std::uint64_t forward_retries = 0;    ///< forward attempts that found the destination's mailbox full (one per destination per pass of the host's loop)
   std::uint64_t store_peak = 0;         ///< most rays held at once

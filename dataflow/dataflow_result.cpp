@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
@@ -91,6 +92,9 @@ nlohmann::json DataflowResult::to_json() const {
                {"contributions", host.contributions},    {"first_hits", host.first_hits},
                {"termination_waves", host.waves}};
   j["spill_fraction"] = spill_fraction();
+  std::uint64_t queued = 0, queue_peak = 0;
+  for (const NodeFlowStats& s : per_node) queued += s.rays_queued, queue_peak = std::max(queue_peak, s.send_queue_peak);
+  j["send_queue"] = {{"rays_queued", queued}, {"peak", queue_peak}};
   std::size_t held = 0, shared_prims = 0;
   for (const RegionReport& r : regions) held += r.primitives, shared_prims += r.shared_primitives;
   j["primitives_held"] = held;

@@ -27,20 +27,24 @@ core::Ray primary_ray(const core::Camera& camera, int spp, std::uint32_t pixel, 
 
 
 NodeBudget node_budget(const nodes::MachineParams& m, std::size_t lights, int max_depth, std::uint32_t regions,
-                       std::size_t tree_nodes) {
+                       std::size_t tree_nodes, std::size_t send_queue_slots) {
   NodeBudget b;
   b.stack_slots = 2 + (lights + 2) * std::size_t(max_depth + 1);
   b.inbox_slots = std::max<std::size_t>(1, 4 * std::size_t(m.mailbox_capacity));
+  b.send_queue_slots = send_queue_slots > 0 ? send_queue_slots : std::max<std::size_t>(1, m.mailbox_capacity);
+  b.send_queue_fixed = send_queue_slots > 0;
+  // Room for messages parked while a send to the host waits (node.h;
+  // bounded by set_park_limit, kParkLimit).
+  b.parking = std::min<std::size_t>(m.mailbox_capacity, kParkLimit) * (m.max_payload + 96);
   b.contribution_slots = (m.max_payload - sizeof(ContributionHeader)) / sizeof(Contribution);
   b.first_hit_slots = (m.max_payload - sizeof(ContributionHeader)) / sizeof(FirstHitRecord);
   b.fixed = nodes::Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload +
             b.stack_slots * sizeof(RayMsg) + b.inbox_slots * sizeof(Pending) +
+            b.send_queue_slots * SendQueue::kSlotBytes + SendQueue::destination_bytes(m.nodes) +
             b.contribution_slots * sizeof(Contribution) + b.first_hit_slots * sizeof(FirstHitRecord) +
             tree_nodes * sizeof(KdNode) +
             std::size_t(regions) * sizeof(ScreenRect) + lights * sizeof(core::Light) + sizeof(core::ShadingScratch) +
-            // room for messages parked while a send to the host waits
-            // (node.h; bounded by set_park_limit, kParkLimit)
-            std::min<std::size_t>(m.mailbox_capacity, kParkLimit) * (m.max_payload + 96);
+            b.parking;
   return b;
 }
 
@@ -79,6 +83,9 @@ class NodeTracer {
       Message m;
       while (inbox_size_ < s_.inbox.size() && ctx_.has_mail() && ctx_.poll(m))
         if (handle(m)) return finish_run();
+      // The communication task: rays waiting in the sending queue go out
+      // once their destination has room (every few rays, and when passive).
+      if (!s_.send_queue.empty() && ++drain_tick_ % kDrainEvery == 0) drain_send_queue();
       const bool local = stack_size_ > 0;
       if (local || inbox_size_ > 0 || next_primary < s_.primaries.size()) {
         // A run permit to compute; the scheduler's yield check (an O(nodes)
@@ -113,6 +120,14 @@ class NodeTracer {
       }
       // Passive: flush, record the end of this work, answer a probe, wait.
       flush();
+      if (!s_.send_queue.empty() && (drain_send_queue(), !s_.send_queue.empty())) {
+        // Rays still wait for room: not passive. Let the others run (their
+        // mailboxes drain only when they do) and try again shortly.
+        ctx_.release_run();
+        ctx_.wait_for_mail(kSendRetryS);
+        ctx_.reset_cpu_mark();
+        continue;
+      }
       if (worked) {
         ctx_.mark_work_done();
         worked = false;
@@ -172,7 +187,7 @@ class NodeTracer {
         probe_wave_ = m.as<TokenMsg>().wave;
         return false;
       case MessageType::kShutdown:
-        if (stack_size_ > 0 || inbox_size_ > 0)
+        if (stack_size_ > 0 || inbox_size_ > 0 || !s_.send_queue.empty())
           throw std::logic_error(fmt::format("node {}: shut down with rays pending", me_));
         return true;
       default:
@@ -232,15 +247,34 @@ class NodeTracer {
       return;
     }
     ++s_.stats.work_sent;
-    const std::size_t k = std::size_t(m.kind);
-    if (ctx_.try_send(m.region, MessageType::kRay, m)) {
-      ++s_.stats.rays_sent[k].messages;
-      s_.stats.rays_sent[k].bytes += sizeof(RayMsg);
-    } else {
-      ctx_.send(nodes::kHost, MessageType::kRay, m);  // the paper's optimistic deadlock avoidance
-      ++s_.stats.rays_spilled[k].messages;
-      s_.stats.rays_spilled[k].bytes += sizeof(RayMsg);
+    if (s_.send_queue.empty() && try_send_ray(m)) return;
+    // The destination is full (or rays wait before this one): the sending
+    // queue holds the ray; when the queue itself is full, the paper's
+    // optimistic deadlock avoidance sends it to the host.
+    if (s_.send_queue.size() == s_.send_queue.capacity()) drain_send_queue();
+    if (s_.send_queue.push(m)) {
+      ++s_.stats.rays_queued;
+      s_.stats.send_queue_peak = std::max<std::uint64_t>(s_.stats.send_queue_peak, s_.send_queue.size());
+      return;
     }
+    const std::size_t k = std::size_t(m.kind);
+    ctx_.send(nodes::kHost, MessageType::kRay, m);
+    ++s_.stats.rays_spilled[k].messages;
+    s_.stats.rays_spilled[k].bytes += sizeof(RayMsg);
+  }
+
+  /// Sends `m` to its region's owner if its mailbox has room.
+  bool try_send_ray(const RayMsg& m) {
+    if (!ctx_.try_send(m.region, MessageType::kRay, m)) return false;
+    const std::size_t k = std::size_t(m.kind);
+    ++s_.stats.rays_sent[k].messages;
+    s_.stats.rays_sent[k].bytes += sizeof(RayMsg);
+    return true;
+  }
+
+  /// The communication task: queued rays whose destination has room leave.
+  void drain_send_queue() {
+    s_.send_queue.drain([this](const RayMsg& r) { return try_send_ray(r); });
   }
 
   /// The ray reached its end without a hit: background or light term.
@@ -349,6 +383,9 @@ class NodeTracer {
   std::uint64_t units_ = 0;
   std::size_t stack_size_ = 0, n_contrib_ = 0, n_first_ = 0;
   std::size_t inbox_head_ = 0, inbox_size_ = 0;
+  static constexpr std::uint64_t kDrainEvery = 8;  ///< loop turns between passes over a non-empty sending queue
+  std::uint64_t drain_tick_ = 0;
+  static constexpr double kSendRetryS = 50e-6;  ///< wall seconds a passive node with queued rays waits before it tries again
   double clock_ = 0;  ///< the node's clock when last sampled (only ever behind)
   static constexpr std::uint64_t kClockEvery = 8;
   std::uint64_t stale_ = 0;

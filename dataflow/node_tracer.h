@@ -16,6 +16,7 @@
 #include "dataflow/dataflow.h"
 #include "dataflow/messages.h"
 #include "dataflow/region.h"
+#include "dataflow/send_queue.h"
 #include "nodes/arena.h"
 #include "nodes/machine.h"
 #include "nodes/node.h"
@@ -69,6 +70,7 @@ struct NodeState {
   nodes::ArenaArray<PrimarySample> primaries;
   nodes::ArenaArray<RayMsg> stack;
   nodes::ArenaArray<Pending> inbox;  ///< received rays not yet traced (ring)
+  SendQueue send_queue;  ///< rays waiting for room at their destination (send_queue.h)
   nodes::ArenaArray<Contribution> contributions;
   nodes::ArenaArray<FirstHitRecord> first_hits;
   core::ShadingScratch* scratch = nullptr;
@@ -100,14 +102,20 @@ constexpr std::size_t kParkLimit = 256;
 /// Bytes a node needs besides its region database (checked before the run).
 struct NodeBudget {
   std::size_t stack_slots, inbox_slots, contribution_slots, first_hit_slots;
-  std::size_t fixed;  ///< mailbox, receive buffer, stack, buffers, kd-tree, lights, scratch, parking room
+  /// The sending queue's least size (one mailbox's worth); it also takes
+  /// whatever the node's memory has left once everything else is loaded.
+  std::size_t send_queue_slots;
+  bool send_queue_fixed;  ///< send_queue_slots is the size asked for: the queue takes no more
+  std::size_t parking;  ///< room kept free for parked messages (part of `fixed`)
+  std::size_t fixed;  ///< mailbox, receive buffer, stack, queues, buffers, kd-tree, lights, scratch, parking room
 };
 
 /// The arena bytes a node needs besides its region database, for a machine
 /// `m`, `lights` lights, rays up to level `max_depth`, `regions` regions and
-/// a region tree of `tree_nodes` nodes.
+/// a region tree of `tree_nodes` nodes; `send_queue_slots` as
+/// DataflowParams::send_queue_slots (0: one mailbox's worth at least).
 NodeBudget node_budget(const nodes::MachineParams& m, std::size_t lights, int max_depth, std::uint32_t regions,
-                       std::size_t tree_nodes);
+                       std::size_t tree_nodes, std::size_t send_queue_slots = 0);
 
 /// Runs node `ctx`'s side of the frame over its state `s` until the host
 /// shuts the machine down. `want_first_hit`: report the first hit of each

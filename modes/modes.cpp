@@ -120,6 +120,7 @@ RunResult render_dataflow(const core::Database& db, const core::Grid& grid, cons
   p.render = req.render;
   p.machine = n.machine;
   p.machine.mailbox_capacity = n.queue_capacity;
+  p.send_queue_slots = n.send_queue;
   p.subsample = n.subsample;
   p.partition = n.partition;
   p.region_aov = req.region_aov || req.node_aov;

@@ -52,6 +52,7 @@ struct NodeModeParams {
   int subsample = 8;                  ///< dataflow: load estimate, one pixel per NxN block
   dataflow::PartitionKind partition = dataflow::PartitionKind::kBalanced;  ///< dataflow
   std::uint32_t queue_capacity = 0;   ///< dataflow: mailbox slots; 0 = the mode's default
+  std::uint32_t send_queue = 0;       ///< dataflow: sending queue slots; 0 = the node memory left
 };
 
 /// One frame's request.

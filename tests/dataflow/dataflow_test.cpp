@@ -193,7 +193,7 @@ TEST_CASE("dataflow: AOVs equal sequential and the region AOV names the region o
   }
 }
 
-TEST_CASE("dataflow: with --queue-capacity 1 rays spill to the host and come back, nothing is lost") {
+TEST_CASE("dataflow: with --queue-capacity 1 --send-queue 1 rays spill to the host and come back, nothing is lost") {
   for (auto [name, size] : {std::pair{"rings", 1}, std::pair{"mount", 2}}) {
     const testing::BuiltScene b = testing::build_spd(name, size);
     core::RenderParams rp;
@@ -205,6 +205,7 @@ TEST_CASE("dataflow: with --queue-capacity 1 rays spill to the host and come bac
       CAPTURE(n);
       DataflowParams p = params_for(rp, n);
       p.machine.mailbox_capacity = 1;
+      p.send_queue_slots = 1;
       const DataflowResult r = render_dataflow(b.db, b.grid, p);
       CHECK(max_diff(r.render.color, seq.color) <= 1e-5f);
       check_counters_match(r.render.stats, seq.stats);

@@ -110,6 +110,7 @@ TEST_CASE("determinism: dataflow images stay within 1e-5 of sequential and of ea
         p.render = rp;
         p.machine = machine(n, s);
         p.machine.mailbox_capacity = run == 0 ? 0 : 2;  // the second run also spills
+        p.send_queue_slots = run == 0 ? 0 : 2;
         const dataflow::DataflowResult r = dataflow::render_dataflow(b.db, b.grid, p);
         CHECK(max_diff(r.render.color, seq.color) <= 1e-5f);
         CHECK(same_bytes(r.render.depth, seq.depth));

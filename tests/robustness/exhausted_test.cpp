@@ -70,6 +70,7 @@ dataflow::DataflowResult run_dataflow(const testing::BuiltScene& b, const core::
   p.render = rp;
   p.machine = machine(n, queue_capacity);
   p.machine.node_memory = 16 * nodes::kMiB;
+  p.send_queue_slots = queue_capacity;  // as small a sending queue: small queues spill
   return dataflow::render_dataflow(b.db, b.grid, p);
 }
 
