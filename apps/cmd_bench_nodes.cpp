@@ -148,20 +148,22 @@ SequentialReference sequential_reference(const NodesBenchOptions& o, const core:
 }
 
 /// Prints the table's row for the best run `best` of `n` nodes (T_1 = `t1`,
-/// 0 if unknown) and returns its JSON row.
+/// 0 if unknown) and returns its JSON row. `ipsc2_scale` > 0 (the ipsc2
+/// network's scale) adds T_p as the iPSC/2 would have taken it.
 nlohmann::json bench_row(std::FILE* report, std::uint32_t n, const NodeRun& best, double t1, bool flow,
-                         bool balanced) {
+                         bool balanced, double ipsc2_scale) {
   const double tp = best.parallel_time_s;
   const double speedup = t1 > 0 ? t1 / tp : 0;
   const double charged = balanced ? charged_efficiency(t1, tp, n, best.estimate_s.value_or(0)) : 0;
   if (flow)
-    fmt::print(report, "{:>6} {:>9.3f} {:>11.5f} {:>9.2f} {:>10.3f} {:>10.4f} {:>10} {:>10.5f} {:>9.3f}\n", n, best.wall_s,
+    fmt::print(report, "{:>6} {:>9.3f} {:>11.5f} {:>9.2f} {:>10.3f} {:>10.4f} {:>10} {:>10.5f} {:>9.3f}", n, best.wall_s,
                tp, speedup, speedup / double(n), best.work_s, best.ray_messages.value_or(0),
                best.spill_fraction.value_or(0), best.average_load.value_or(0));
   else
-    fmt::print(report, "{:>6} {:>9.3f} {:>11.5f} {:>9.2f} {:>10.3f} {:>10.4f} {:>8} {:>10.5f} {:>9.2f}{}\n", n, best.wall_s,
+    fmt::print(report, "{:>6} {:>9.3f} {:>11.5f} {:>9.2f} {:>10.3f} {:>10.4f} {:>8} {:>10.5f} {:>9.2f}{}", n, best.wall_s,
                tp, speedup, speedup / double(n), best.work_s, best.grants.value_or(0), best.miss_ratio.value_or(-1),
                best.pages_per_pixel.value_or(-1), balanced ? fmt::format(" {:>12.3f}", charged) : std::string());
+  fmt::print(report, "{}\n", ipsc2_scale > 0 ? fmt::format(" {:>11}", hours_minutes_seconds(tp / ipsc2_scale)) : "");
   nlohmann::json row = {{"nodes", n},       {"wall_s", best.wall_s},         {"parallel_time_s", tp},
                         {"speedup", speedup}, {"efficiency", speedup / double(n)}, {"work_s", best.work_s},
                         {"rays", best.rays}};
@@ -174,6 +176,7 @@ nlohmann::json bench_row(std::FILE* report, std::uint32_t n, const NodeRun& best
     row["miss_ratio"] = best.miss_ratio.value_or(-1);
     row["pages_per_pixel"] = best.pages_per_pixel.value_or(-1);
   }
+  if (ipsc2_scale > 0) row["ipsc2_time_s"] = tp / ipsc2_scale;
   if (balanced) {
     row["estimate_s"] = best.estimate_s.value_or(0);
     row["efficiency_estimate_charged"] = charged;
@@ -223,11 +226,15 @@ void run_bench_nodes(const NodesBenchOptions& o) {
   // eff_charged adds it to T_p, as serial work of one node before the run.
   const bool balanced = !flow && spec.submaps.rule == control::SubmapRule::kBalanced;
   if (flow)
-    fmt::print(report, "{:>6} {:>9} {:>11} {:>9} {:>10} {:>10} {:>10} {:>10} {:>9}\n", "nodes", "wall_s", "T_p_s", "speedup",
+    fmt::print(report, "{:>6} {:>9} {:>11} {:>9} {:>10} {:>10} {:>10} {:>10} {:>9}", "nodes", "wall_s", "T_p_s", "speedup",
                "efficiency", "work_s", "ray_msgs", "spill", "avg_load");
   else
-    fmt::print(report, "{:>6} {:>9} {:>11} {:>9} {:>10} {:>10} {:>8} {:>10} {:>9}{}\n", "nodes", "wall_s", "T_p_s", "speedup",
+    fmt::print(report, "{:>6} {:>9} {:>11} {:>9} {:>10} {:>10} {:>8} {:>10} {:>9}{}", "nodes", "wall_s", "T_p_s", "speedup",
                "efficiency", "work_s", "grants", "miss_ratio", "pages/px", balanced ? "  eff_charged" : "");
+  // Under the ipsc2 network, T_p as the iPSC/2 would have taken it (its
+  // costs are this machine's scaled by network.scale; Table 3's h:m:s).
+  const double ipsc2_scale = spec.machine.network.name == "ipsc2" ? spec.machine.network.scale : 0.0;
+  fmt::print(report, "{}\n", ipsc2_scale > 0 ? fmt::format(" {:>11}", "ipsc2_time") : "");
   nlohmann::json rows = nlohmann::json::array();
   double t1 = 0, t1_work_s = 0;  // the one-node run's T_p and busy time
   std::optional<double> one_node_ratio, one_node_median;  // set after the rows
@@ -260,7 +267,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
       t1 = best.parallel_time_s;
       t1_work_s = best.work_s;
     }
-    rows.push_back(bench_row(report, n, best, t1, flow, balanced));
+    rows.push_back(bench_row(report, n, best, t1, flow, balanced, ipsc2_scale));
     if (!o.json_path.empty()) files.update(json_out, json_doc());
   }
   if (t1 == 0) fmt::print(report, "(no 1-node run in --nodes: speedup needs T_1)\n");

@@ -354,4 +354,10 @@ std::string format_duration(double s) {
   return fmt::format("{} h {:02} min", t / 3600, (t % 3600) / 60);
 }
 
+std::string hours_minutes_seconds(double s) {
+  if (!(s >= 0) || !std::isfinite(s)) return "?";
+  const long long t = std::llround(s);
+  return fmt::format("{}:{:02}:{:02}", t / 3600, (t % 3600) / 60, t % 60);
+}
+
 }  // namespace raynode::apps

@@ -206,6 +206,9 @@ inline double charged_efficiency(double t1, double tp, int n, double serial_s) {
 
 /// "1.5 s", "2 min 10 s", "1 h 02 min" for progress lines.
 std::string format_duration(double seconds);
+/// "3:12:02" (hours:minutes:seconds, rounded to the second), as the
+/// paper's Table 3 writes times; "?" for a negative or non-finite value.
+std::string hours_minutes_seconds(double seconds);
 
 /// Seconds since `t0` on the steady clock.
 double seconds_since(std::chrono::steady_clock::time_point t0);

@@ -5,6 +5,8 @@
 
 #include <doctest/doctest.h>
 
+#include <limits>
+
 #include "core/camera.h"
 #include "control/submap_plan.h"
 #include "test_scenes.h"
@@ -65,4 +67,13 @@ TEST_CASE("node runs: charged_efficiency") {
   CHECK(apps::charged_efficiency(6.0, 1.0, 4, 0.5) == 1.0);     // 6 / (4 x 1.5)
   CHECK(apps::charged_efficiency(0.0, 1.0, 8, 0.0) == 0.0);     // no T_1
   CHECK(apps::charged_efficiency(8.0, 0.0, 8, 0.0) == 0.0);     // no T_p
+}
+
+TEST_CASE("node runs: hours_minutes_seconds writes Table 3's times") {
+  CHECK(apps::hours_minutes_seconds(11522.0) == "3:12:02");  // Teapot on one iPSC/2 node
+  CHECK(apps::hours_minutes_seconds(200.4) == "0:03:20");
+  CHECK(apps::hours_minutes_seconds(59.5) == "0:01:00");     // rounded to the second
+  CHECK(apps::hours_minutes_seconds(0.0) == "0:00:00");
+  CHECK(apps::hours_minutes_seconds(-1.0) == "?");
+  CHECK(apps::hours_minutes_seconds(std::numeric_limits<double>::infinity()) == "?");
 }
