@@ -74,7 +74,7 @@ const std::map<std::string, std::string>& option_groups() {
       {"mode", "Mode"}, {"modes", "Mode"}, {"nodes", "Mode"}, {"accel", "Mode"}, {"grid", "Mode"},
       {"skip-empty", "Mode"}, {"pack-cells", "Mode"},
       // The emulated machine
-      {"machine", "Machine"}, {"node-memory", "Machine"}, {"network", "Machine"}, {"network-scale", "Machine"},
+      {"machine", "Machine"}, {"node-memory", "Machine"}, {"network", "Machine"}, {"network-scale", "Machine"}, {"contention", "Machine"},
       {"topology", "Machine"}, {"clock", "Machine"}, {"schedule-window", "Machine"},
       {"mail-wakeups", "Machine"}, {"stall-timeout", "Machine"}, {"work-item", "Machine"},
       {"work-requests", "Machine"}, {"work-grants", "Machine"}, {"submaps", "Machine"},

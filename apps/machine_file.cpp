@@ -80,9 +80,14 @@ MachineDescription load_machine(const std::string& name) {
       static const std::set<std::string> figures{"latency_s", "per_byte_s", "per_hop_s", "service_s", "fault_s",
                                                  "seconds_per_ray"};
       for (const auto& [key, value] : v.items()) {
+        if (key == "contention") {
+          if (!value.is_boolean()) throw bad("network.contention", "must be true or false");
+          f.contention = value.get<bool>();
+          continue;
+        }
         if (!figures.count(key))
           throw bad("network." + key, "is not a network figure (latency_s, per_byte_s, per_hop_s, service_s, "
-                                      "fault_s, seconds_per_ray)");
+                                      "fault_s, seconds_per_ray, contention)");
         if (!value.is_number() || !std::isfinite(value.get<double>()) || value.get<double>() < 0)
           throw bad("network." + key, "must be a finite number of seconds >= 0");
       }

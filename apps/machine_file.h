@@ -11,6 +11,7 @@
 //    "network": "none|ipsc2|cluster"            (a preset, or its figures:)
 //             | {"latency_s": s, "per_byte_s": s, "per_hop_s": s,
 //                "service_s": s, "fault_s": s,  (fault_s optional)
+//                "contention": true|false,      (optional, default false)
 //                "seconds_per_ray": s}}         (optional: that machine's one-node
 //                                                tracing speed; costs are then scaled
 //                                                to this host's, as ipsc2 is)
@@ -28,6 +29,7 @@ namespace raynode::apps {
 struct NetworkFigures {
   double latency_s = 0, per_byte_s = 0, per_hop_s = 0, service_s = 0;
   double fault_s = -1;          ///< < 0: the cost model's
+  bool contention = false;      ///< links held while a message streams (nodes/links.h)
   double seconds_per_ray = 0;   ///< > 0: scale every cost by (this host's seconds per ray) / this
 };
 

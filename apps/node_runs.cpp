@@ -54,6 +54,11 @@ void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) 
                "ray speed, calibrated once per command), none (free), cluster (1.5 us, 12.5 GB/s)")
       ->check(CLI::IsMember({"none", "ipsc2", "cluster"}))
       ->capture_default_str();
+  c.add_option("--contention", o.contention,
+               "Node modes: link contention: on (a message holds its route's links while it streams, e-cube routes "
+               "on the hypercube; the ipsc2 network's default), off (links never busy); default: the network's")
+      ->check(CLI::IsMember({"auto", "on", "off"}))
+      ->capture_default_str();
   c.add_option("--network-scale", o.network_scale,
                "ipsc2: this machine's seconds per ray (default: measured once at start)")
       ->check(finite_positive());
@@ -213,6 +218,7 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
     m.network.per_hop_s = scale * f.per_hop_s;
     m.network.service_s = scale * f.service_s;
     m.network.fault_s = f.fault_s < 0 ? -1.0 : scale * f.fault_s;
+    m.network.contention = f.contention;
   } else {
     try {
       m.network = nodes::make_network(o.network, o.network_scale,
@@ -221,6 +227,7 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
       throw UsageError(std::string("--network: ") + e.what());
     }
   }
+  if (o.contention != "auto") m.network.contention = o.contention == "on";
   std::tie(s.item_w, s.item_h) = parse_work_item(o.work_item);
   if (o.page_size < svm::kMinPageSize || o.page_size > svm::kMaxPageSize || !std::has_single_bit(o.page_size))
     throw UsageError(fmt::format("--page-size: page size must be a power of two from {} B (one primitive record) "

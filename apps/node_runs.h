@@ -65,6 +65,7 @@ struct NodeRunOptions {
   std::optional<NetworkFigures> network_figures;  ///< --machine FILE's network figures (network "custom")
   std::string node_memory = "4MiB";     ///< per node (the iPSC/2's 4 MiB)
   std::string network = "ipsc2";        ///< none, ipsc2, cluster
+  std::string contention = "auto";      ///< link contention: auto (the network's), on, off
   double network_scale = 0;             ///< ipsc2: this machine's seconds per ray; 0 = calibrate once
   std::string topology = "hypercube";   ///< hypercube, ring, torus
   std::string work_item = "3x3";        ///< replicated, svm: pixels per work item

@@ -251,6 +251,7 @@ const std::vector<ModeOptionRule>& mode_option_rules() {
       {"--node-memory", kNodeModes, "the emulated machine's memories"},
       {"--network", kNodeModes, "the emulated machine's network"},
       {"--network-scale", kNodeModes, "the emulated machine's network"},
+      {"--contention", kNodeModes, "the emulated machine's network"},
       {"--topology", kNodeModes, "the emulated machine's network"},
       {"--schedule-window", kNodeModes, "the emulated machine's scheduler"},
       {"--mail-wakeups", kNodeModes, "the emulated machine's scheduler"},

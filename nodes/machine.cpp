@@ -45,6 +45,7 @@ MachineState::MachineState(const MachineParams& p)
   scheduler = std::make_unique<Scheduler>(
       p.nodes, permits, p.schedule_window_s, [this](std::uint32_t node) { nodes[node]->mailbox().wake(); },
       p.scheduled_mail.value_or(false));
+  if (p.network.contention && p.nodes > 1) links = std::make_unique<LinkNetwork>(topology);
 }
 
 MachineState::~MachineState() = default;
@@ -214,6 +215,7 @@ RunReport make_run_report(MachineState& state, const MachineParams& params, cons
   const std::uint32_t n = params.nodes;
   RunReport report;
   report.network = params.network.name;
+  report.contention = params.network.contention;
   report.topology = topology_name(params.topology);
   report.clock = compute_clock_name(params.clock);
   report.work_requests = work_request_route_name(params.work_request_route);
@@ -331,6 +333,8 @@ nlohmann::json counters_json(const NodeCounters& c) {
   j["full_mailbox_retries"] = c.full_mailbox_retries;
   j["services"] = c.services;
   j["service_wait_s"] = c.service_wait_s;
+  j["link_waits"] = c.link_waits;
+  j["link_wait_s"] = c.link_wait_s;
   j["backlog_peak"] = c.backlog_peak;
   return j;
 }
@@ -341,6 +345,7 @@ nlohmann::json RunReport::to_json(bool per_node) const {
   nlohmann::json j;
   j["count"] = nodes.size();
   j["network"] = network;
+  j["contention"] = contention;
   j["topology"] = topology;
   j["clock"] = clock;
   j["work_requests"] = work_requests;

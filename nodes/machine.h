@@ -36,6 +36,7 @@
 #include <vector>
 
 #include "core/cost_model.h"
+#include "nodes/links.h"
 #include "nodes/node.h"
 #include "nodes/scheduler.h"
 
@@ -107,6 +108,7 @@ struct RunReport {
   double parallel_time_s = 0;  ///< T_p: the latest end of work (or final clock) over the nodes, virtual seconds
   double wall_s = 0;           ///< real seconds the run took
   std::string network;         ///< preset name
+  bool contention = false;     ///< links contend (NetworkModel::contention)
   std::string topology;
   std::string clock;           ///< "cpu" or "model" (MachineParams::clock)
   std::string work_requests;   ///< "ring", "last-grantor" or "off" (MachineParams::work_request_route)
@@ -138,6 +140,7 @@ class MachineState {
   std::atomic<bool> stop{false};
   std::unique_ptr<std::atomic<bool>[]> finished;  ///< per node: its main returned
   std::unique_ptr<Scheduler> scheduler;
+  std::unique_ptr<LinkNetwork> links;  ///< the links in virtual time, under NetworkModel::contention
   std::atomic<std::uint64_t> progress{0};  ///< messages sent so far (the stall watchdog's measure)
 
   NodeContext& context(NodeId id) { return id == kHost ? *host : *nodes[id]; }

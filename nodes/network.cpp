@@ -24,6 +24,7 @@ NetworkModel make_network(const std::string& name, double seconds_per_ray, const
     m.per_hop_s = m.scale * 10e-6;
     m.service_s = m.scale * 100e-6;
     m.fault_s = m.service_s;
+    m.contention = true;  // Direct-Connect circuits hold their links while a message streams (links.h)
     return m;
   }
   if (name == "cluster") {

@@ -12,7 +12,12 @@
 //                per_byte = 1 / 2.75e6 s           = 0.364 us/B
 //                latency  = 1024/0.9e6 - 1024/2.75e6 = 0.765 ms,
 //              and we add 10 us per hop (the paper gives none; Direct-Connect
-//              circuit switching makes it ~1% of the start-up). To keep the
+//              circuit switching makes it ~1% of the start-up). Links contend
+//              (`contention`, links.h): a Direct-Connect circuit holds its
+//              links while the message streams, full duplex, 2.8 MB/s each
+//              way (S. F. Nugent, "The iPSC/2 Direct-Connect communications
+//              technology", Proc. 3rd Conf. on Hypercube Concurrent Computers
+//              and Applications, 1988). To keep the
 //              paper's ratio of page transfer to ray computation, all three
 //              are multiplied by
 //                scale = (this machine's seconds per ray) / (iPSC/2 seconds per ray),
@@ -54,6 +59,10 @@ struct NetworkModel {
   /// A page fault's own work at the faulting node under the model clock,
   /// virtual seconds; < 0: the cost model's (CostFeature::kPageFault).
   double fault_s = -1;
+  /// Link contention (links.h): a message holds its route's links while it
+  /// streams, and waits for a link another message holds. Off: links are
+  /// never busy (a message costs message_time whatever else is sent).
+  bool contention = false;
   double scale = 1;       ///< the factor applied to the preset's real figures
 
   /// Transfer time of `bytes` over `hops` links, virtual seconds.

@@ -37,6 +37,8 @@ NodeCounters& NodeCounters::operator+=(const NodeCounters& o) {
   full_mailbox_retries += o.full_mailbox_retries;
   services += o.services;
   service_wait_s += o.service_wait_s;
+  link_waits += o.link_waits;
+  link_wait_s += o.link_wait_s;
   backlog_peak = std::max(backlog_peak, o.backlog_peak);
   return *this;
 }
@@ -104,27 +106,10 @@ void NodeContext::charge(double seconds) {
 double NodeContext::serve_interrupt(double arrival, double seconds) {
   ++counters_.services;
   if (!(seconds > 0)) return arrival;  // a free service (--network none) occupies no handler time
-  // The first gap of at least `seconds` at or after `arrival`.
-  double start = arrival;
-  auto next = handler_busy_.upper_bound(start);
-  if (next != handler_busy_.begin()) start = std::max(start, std::prev(next)->second);
-  while (next != handler_busy_.end() && next->first < start + seconds) start = std::max(start, (next++)->second);
-  const double end = start + seconds;
-  // Book [start, end), merged with a busy interval it touches.
-  auto before = handler_busy_.lower_bound(start);
-  if (before != handler_busy_.begin() && std::prev(before)->second >= start) {
-    std::prev(before)->second = end;
-    before = std::prev(before);
-  } else {
-    before = handler_busy_.emplace_hint(before, start, end);
-  }
-  if (next != handler_busy_.end() && next->first <= end) {
-    before->second = next->second;
-    handler_busy_.erase(next);
-  }
+  const double start = handler_busy_.take(arrival, seconds);  // the first gap at or after the arrival
   counters_.service_wait_s += start - arrival;
   charge(seconds);
-  return end;
+  return start + seconds;
 }
 
 void NodeContext::note_wait(WaitReason reason, std::int64_t a, std::int64_t b) {
@@ -302,7 +287,20 @@ bool NodeContext::try_send(NodeId dest, MessageType type, std::span<const std::s
   for (const auto& p : parts) bytes += p.size();
   h.wire_bytes = wire_bytes ? wire_bytes : std::uint32_t(bytes);
   h.send_time = depart >= 0 ? depart : clock_;
-  h.arrival_time = h.send_time + network().message_time(h.wire_bytes, topology().hops(id_, dest));
+  const std::uint32_t hops = topology().hops(id_, dest);
+  // Under link contention the message streams through its route once every
+  // link of it is free (links.h); else it never waits for a link.
+  const NetworkModel& net = network();
+  const bool contended = machine_->links && !is_host() && dest != kHost && hops > 0;
+  double ready = 0, entered = 0;
+  if (contended) {
+    const double hold = double(h.wire_bytes) * net.per_byte_s + double(hops) * net.per_hop_s;
+    ready = h.send_time + net.latency_s;
+    entered = machine_->links->reserve(id_, dest, ready, hold);
+    h.arrival_time = entered + hold;
+  } else {
+    h.arrival_time = h.send_time + net.message_time(h.wire_bytes, hops);
+  }
   bool costly = false;
   const bool ok = push_to(dest, h, parts, costly);
   if (ok) {
@@ -310,6 +308,12 @@ bool NodeContext::try_send(NodeId dest, MessageType type, std::span<const std::s
     MessageCounts& c = counters_.sent[std::size_t(type)];
     ++c.messages;
     c.bytes += h.wire_bytes;
+    if (entered > ready) {
+      ++counters_.link_waits;
+      counters_.link_wait_s += entered - ready;
+    }
+  } else if (contended) {
+    machine_->links->cancel(id_, dest, entered);  // not sent: the links were never used
   }
   // A plain copy into the mailbox (~0.1 µs) is left to the node's computing,
   // as a real node's send overhead: reading the CPU clock to exclude it

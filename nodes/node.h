@@ -32,7 +32,6 @@
 #include <cstdint>
 #include <cstddef>
 #include <deque>
-#include <map>
 #include <memory>
 #include <memory_resource>
 #include <span>
@@ -46,6 +45,7 @@
 #include "nodes/message.h"
 #include "nodes/network.h"
 #include "nodes/scheduler.h"
+#include "nodes/timeline.h"
 #include "nodes/topology.h"
 
 namespace raynode::nodes {
@@ -120,6 +120,8 @@ struct NodeCounters {
   std::uint64_t full_mailbox_retries = 0;  ///< send() attempts that found the destination full
   std::uint64_t services = 0;  ///< messages served at interrupt level (serve_interrupt)
   double service_wait_s = 0;   ///< virtual seconds those messages waited for the handler (a busy home node)
+  std::uint64_t link_waits = 0;  ///< messages sent that waited for a link held by another (link contention)
+  double link_wait_s = 0;        ///< virtual seconds they waited
   std::uint64_t backlog_peak = 0;          ///< most messages parked while a send waited
 
   MessageCounts total_sent() const;
@@ -352,7 +354,7 @@ class NodeContext {
   WorkMeter meter_ = nullptr;
   const void* meter_state_ = nullptr;
   double work_done_s_ = -1;
-  std::map<double, double> handler_busy_;  ///< the interrupt handler's busy intervals [start, end), disjoint (serve_interrupt)
+  BusyTimeline handler_busy_;  ///< the interrupt handler's services (serve_interrupt)
   NodeCounters counters_;
 };
 

@@ -1,0 +1,115 @@
+// Link contention (nodes/links.h, nodes/timeline.h): routes as long as the
+// topology's hop counts, e-cube order on the hypercube, messages sharing a
+// link at once wait for each other, others do not.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cstddef>
+#include <set>
+#include <vector>
+
+#include "nodes/links.h"
+#include "nodes/machine.h"
+#include "nodes/timeline.h"
+
+using namespace raynode::nodes;
+
+TEST_CASE("links: every route has hops(a, b) distinct links, for every topology") {
+  for (TopologyKind kind : {TopologyKind::kHypercube, TopologyKind::kRing, TopologyKind::kTorus2D})
+    for (std::uint32_t n : {1u, 2u, 7u, 12u, 16u}) {
+      CAPTURE(topology_name(kind));
+      CAPTURE(n);
+      const Topology t(kind, n);
+      const LinkNetwork net(t);
+      std::vector<std::uint32_t> route;
+      for (NodeId a = 0; a < n; ++a)
+        for (NodeId b = 0; b < n; ++b) {
+          net.route(a, b, route);
+          CHECK(route.size() == t.hops(a, b));
+          CHECK(std::set<std::uint32_t>(route.begin(), route.end()).size() == route.size());
+          for (std::uint32_t l : route) CHECK(l < net.links());
+        }
+    }
+}
+
+TEST_CASE("links: e-cube routes correct the lowest differing address bit first") {
+  const Topology t(TopologyKind::kHypercube, 16);
+  const LinkNetwork net(t);
+  std::vector<std::uint32_t> a, b;
+  net.route(0, 3, a);  // 0 -> 1 -> 3
+  net.route(1, 3, b);  // 1 -> 3
+  REQUIRE(a.size() == 2);
+  REQUIRE(b.size() == 1);
+  CHECK(a[1] == b[0]);  // the two share the link 1 -> 3
+  net.route(3, 1, b);   // the opposite direction is another link
+  CHECK(b[0] != a[1]);
+}
+
+TEST_CASE("links: a message waits for a link another holds, while other links and directions do not") {
+  const Topology t(TopologyKind::kHypercube, 8);
+  LinkNetwork net(t);
+  CHECK(net.reserve(0, 3, 1.0, 0.5) == 1.0);  // free: starts when ready
+  CHECK(net.reserve(1, 3, 1.2, 0.5) == 1.5);  // shares 1 -> 3, held until 1.5
+  CHECK(net.reserve(4, 5, 1.2, 0.5) == 1.2);  // another link
+  CHECK(net.reserve(3, 1, 1.2, 0.5) == 1.2);  // the other direction
+  CHECK(net.reserve(0, 1, 0.2, 0.5) == 0.2);  // booked later, earlier in virtual time: the gap before
+  CHECK(net.reserve(0, 1, 0.6, 0.5) == 1.5);  // 0 -> 1 is held over [0.2, 0.7) and [1.0, 1.5): [0.7, 1.0) is too short
+  net.cancel(0, 1, 1.5);
+  CHECK(net.reserve(0, 1, 1.6, 0.5) == 1.6);  // the cancelled period is free again
+}
+
+TEST_CASE("timeline: first fit, cancel, and bounded memory") {
+  BusyTimeline t;
+  CHECK(t.take(1.0, 1.0) == 1.0);
+  CHECK(t.take(0.0, 0.5) == 0.0);
+  CHECK(t.take(0.2, 0.6) == 2.0);  // [0.5, 1.0) is too short
+  CHECK(t.take(0.5, 0.5) == 0.5);  // fits exactly
+  t.cancel(2.0);
+  CHECK(t.first_gap(1.9, 0.5) == 2.0);
+  t.book(5.0, 0.0);  // zero length: nothing booked
+  CHECK(t.periods() == 3);
+  for (std::size_t i = 0; i < 2 * BusyTimeline::kMaxPeriods; ++i) t.take(10.0 + double(i), 0.5);
+  CHECK(t.periods() <= BusyTimeline::kMaxPeriods);
+  CHECK(t.periods() >= BusyTimeline::kMaxPeriods / 2);
+}
+
+TEST_CASE("links: under contention two 1 KiB messages over a shared link arrive one hold apart") {
+  for (bool contention : {false, true}) {
+    CAPTURE(contention);
+    MachineParams p;
+    p.nodes = 4;
+    p.timeout_s = 60;
+    p.max_payload = 2048;
+    p.network.name = "test";
+    p.network.latency_s = 1e-3;
+    p.network.per_byte_s = 1e-6;
+    p.network.contention = contention;
+    Machine machine(p);
+    std::vector<double> arrivals;
+    std::atomic<int> sent{0};
+    const RunReport r = machine.run(
+        [&](NodeContext& ctx) {
+          const std::vector<std::byte> page(1024);
+          const std::span<const std::byte> parts[1] = {page};
+          if (ctx.id() == 0 || ctx.id() == 1) {  // both at time 0; routes 0 -> 1 -> 3 and 1 -> 3
+            ctx.send(3, MessageType::kPageReply, std::span<const std::span<const std::byte>>(parts, 1), 0.0);
+            sent.fetch_add(1);
+          } else if (ctx.id() == 3) {
+            for (int i = 0; i < 2; ++i) arrivals.push_back(ctx.receive(WaitKind::kCommunication).header.arrival_time);
+          }
+        },
+        [](NodeContext&) {});
+    REQUIRE(arrivals.size() == 2);
+    std::sort(arrivals.begin(), arrivals.end());
+    const double hold = 1024 * 1e-6;
+    CHECK(arrivals[0] == doctest::Approx(1e-3 + hold));
+    if (contention) {
+      CHECK(arrivals[1] == doctest::Approx(1e-3 + 2 * hold));
+      CHECK(r.nodes[0].counters.link_waits + r.nodes[1].counters.link_waits == 1);
+    } else {
+      CHECK(arrivals[1] == doctest::Approx(1e-3 + hold));
+      CHECK(r.nodes[0].counters.link_waits + r.nodes[1].counters.link_waits == 0);
+    }
+  }
+}
