@@ -78,7 +78,7 @@ MachineDescription load_machine(const std::string& name) {
     } else if (v.is_object()) {
       NetworkFigures f;
       static const std::set<std::string> figures{"latency_s", "per_byte_s", "per_hop_s", "service_s", "fault_s",
-                                                 "seconds_per_ray"};
+                                                 "send_overhead_s", "seconds_per_ray"};
       for (const auto& [key, value] : v.items()) {
         if (key == "contention") {
           if (!value.is_boolean()) throw bad("network.contention", "must be true or false");
@@ -87,7 +87,7 @@ MachineDescription load_machine(const std::string& name) {
         }
         if (!figures.count(key))
           throw bad("network." + key, "is not a network figure (latency_s, per_byte_s, per_hop_s, service_s, "
-                                      "fault_s, seconds_per_ray, contention)");
+                                      "fault_s, send_overhead_s, seconds_per_ray, contention)");
         if (!value.is_number() || !std::isfinite(value.get<double>()) || value.get<double>() < 0)
           throw bad("network." + key, "must be a finite number of seconds >= 0");
       }
@@ -97,6 +97,7 @@ MachineDescription load_machine(const std::string& name) {
       f.per_hop_s = get("per_hop_s", 0);
       f.service_s = get("service_s", 0);
       f.fault_s = get("fault_s", -1);
+      f.send_overhead_s = get("send_overhead_s", 0);
       f.seconds_per_ray = get("seconds_per_ray", 0);
       m.network_figures = f;
     } else {

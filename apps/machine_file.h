@@ -11,6 +11,7 @@
 //    "network": "none|ipsc2|cluster"            (a preset, or its figures:)
 //             | {"latency_s": s, "per_byte_s": s, "per_hop_s": s,
 //                "service_s": s, "fault_s": s,  (fault_s optional)
+//                "send_overhead_s": s,          (optional: the sender's CPU per message)
 //                "contention": true|false,      (optional, default false)
 //                "seconds_per_ray": s}}         (optional: that machine's one-node
 //                                                tracing speed; costs are then scaled
@@ -27,7 +28,7 @@ namespace raynode::apps {
 
 /// A network described by its figures (nodes::NetworkModel's, before scaling).
 struct NetworkFigures {
-  double latency_s = 0, per_byte_s = 0, per_hop_s = 0, service_s = 0;
+  double latency_s = 0, per_byte_s = 0, per_hop_s = 0, service_s = 0, send_overhead_s = 0;
   double fault_s = -1;          ///< < 0: the cost model's
   bool contention = false;      ///< links held while a message streams (nodes/links.h)
   double seconds_per_ray = 0;   ///< > 0: scale every cost by (this host's seconds per ray) / this

@@ -297,7 +297,7 @@ class Farm {
           return true;
         }
         Rect item;
-        const double at = ctx_.serve_interrupt(m.header.arrival_time, ctx_.network().service_s);
+        const double at = ctx_.serve_interrupt(m.header.arrival_time, ctx_.network().reply_service_s());
         const WorkGrant rule = ctx_.work_grant();
         if (rule == WorkGrant::kHalf      ? pool.take_back_half(item)
             : rule == WorkGrant::kNearest ? pool.take_nearest(r.near_x, r.near_y, item)

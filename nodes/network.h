@@ -1,7 +1,10 @@
 // The network cost model of the emulated machine (docs/architecture.md, "Virtual
-// time"): a message of b bytes crossing h links arrives
-//     arrival = departure + latency + b x per_byte + h x per_hop
-// in virtual seconds. The receiver's clock becomes max(own, arrival).
+// time"): a message of b bytes crossing h links, sent at the sender's clock
+// t, costs the sender send_overhead of CPU time and arrives
+//     arrival = t + send_overhead + latency + b x per_byte + h x per_hop
+// in virtual seconds (later under link contention, links.h). The receiver's
+// clock becomes max(own, arrival). A reply sent by an interrupt handler
+// departs when its service (service + send_overhead) ends.
 //
 // Presets (`--network`):
 //  * none    — free, instantaneous messages: isolates computation.
@@ -10,7 +13,10 @@
 //              gives 0.9 MB/s for 1 KiB messages and a 2.75 MB/s peak. Read
 //              as start-up + bytes / peak, that is
 //                per_byte = 1 / 2.75e6 s           = 0.364 us/B
-//                latency  = 1024/0.9e6 - 1024/2.75e6 = 0.765 ms,
+//                start-up = 1024/0.9e6 - 1024/2.75e6 = 0.765 ms,
+//              of which the sender's processor spends 0.35 ms in the message
+//              software (send_overhead, the zero-byte latency: Arlauskas
+//              1988, below) and the rest, 0.415 ms, is the wire's latency;
 //              and we add 10 us per hop (the paper gives none; Direct-Connect
 //              circuit switching makes it ~1% of the start-up). Links contend
 //              (`contention`, links.h): a Direct-Connect circuit holds its
@@ -18,8 +24,8 @@
 //              way (S. F. Nugent, "The iPSC/2 Direct-Connect communications
 //              technology", Proc. 3rd Conf. on Hypercube Concurrent Computers
 //              and Applications, 1988). To keep the
-//              paper's ratio of page transfer to ray computation, all three
-//              are multiplied by
+//              paper's ratio of page transfer to ray computation, every cost
+//              is multiplied by
 //                scale = (this machine's seconds per ray) / (iPSC/2 seconds per ray),
 //              where the iPSC/2 traced Teapot's 1,397,473 rays in 3:12:02 on
 //              one node (Tables 2 and 3): 8.245 ms per ray. This machine's
@@ -49,6 +55,13 @@ namespace raynode::nodes {
 
 /// iPSC/2 seconds per ray on one node (Teapot, Tables 2 and 3): 11522 s / 1,397,473 rays.
 inline constexpr double kIpsc2SecondsPerRay = 11522.0 / 1397473.0;
+/// The iPSC/2 sender's CPU time per message: the zero-byte message latency
+/// of its message software, 350 us (E. Arlauskas, "iPSC/2 system: a second
+/// generation hypercube", Proc. 3rd Conf. on Hypercube Concurrent Computers
+/// and Applications, 1988: the release target; beta software measured 490
+/// us), counted as the sending processor's own time (a zero-byte message
+/// has no wire time to speak of).
+inline constexpr double kIpsc2SendOverheadS = 350e-6;
 
 struct NetworkModel {
   std::string name = "none";
@@ -56,6 +69,10 @@ struct NetworkModel {
   double per_byte_s = 0;  ///< virtual seconds per byte on the wire
   double per_hop_s = 0;   ///< virtual seconds per link crossed
   double service_s = 0;   ///< receiver's cost to serve a message at interrupt level
+  /// The sender's own CPU time per message: the message software's part of
+  /// the start-up, spent on the node's processor before the message leaves
+  /// (charged as busy time); the wire's start-up is latency_s besides it.
+  double send_overhead_s = 0;
   /// A page fault's own work at the faulting node under the model clock,
   /// virtual seconds; < 0: the cost model's (CostFeature::kPageFault).
   double fault_s = -1;
@@ -65,7 +82,10 @@ struct NetworkModel {
   bool contention = false;
   double scale = 1;       ///< the factor applied to the preset's real figures
 
-  /// Transfer time of `bytes` over `hops` links, virtual seconds.
+  /// An interrupt handler's time to serve a request and send its reply.
+  double reply_service_s() const { return service_s + send_overhead_s; }
+  /// Transfer time of `bytes` over `hops` links, virtual seconds (after the
+  /// sender's send_overhead_s).
   double message_time(std::uint64_t bytes, std::uint32_t hops) const {
     return latency_s + double(bytes) * per_byte_s + double(hops) * per_hop_s;
   }

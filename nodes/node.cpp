@@ -286,11 +286,14 @@ bool NodeContext::try_send(NodeId dest, MessageType type, std::span<const std::s
   std::size_t bytes = 0;
   for (const auto& p : parts) bytes += p.size();
   h.wire_bytes = wire_bytes ? wire_bytes : std::uint32_t(bytes);
-  h.send_time = depart >= 0 ? depart : clock_;
+  // A node's own send (not an interrupt-level reply, whose handler time
+  // includes it) first spends the message software's CPU time.
+  const NetworkModel& net = network();
+  const double overhead = depart < 0 && !is_host() ? net.send_overhead_s : 0.0;
+  h.send_time = (depart >= 0 ? depart : clock_) + overhead;
   const std::uint32_t hops = topology().hops(id_, dest);
   // Under link contention the message streams through its route once every
   // link of it is free (links.h); else it never waits for a link.
-  const NetworkModel& net = network();
   const bool contended = machine_->links && !is_host() && dest != kHost && hops > 0;
   double ready = 0, entered = 0;
   if (contended) {
@@ -308,6 +311,7 @@ bool NodeContext::try_send(NodeId dest, MessageType type, std::span<const std::s
     MessageCounts& c = counters_.sent[std::size_t(type)];
     ++c.messages;
     c.bytes += h.wire_bytes;
+    if (overhead > 0) charge(overhead);
     if (entered > ready) {
       ++counters_.link_waits;
       counters_.link_wait_s += entered - ready;

@@ -194,7 +194,7 @@ bool Pager::serve(const nodes::Message& m) {
   if (page >= layout_.pages || PageLayout::home(page, nodes_) != ctx_.id())
     throw std::logic_error(fmt::format("{}: {} asked for page {}, which does not live here",
                                        nodes::node_name(ctx_.id()), nodes::node_name(m.source()), page));
-  const double depart = ctx_.serve_interrupt(m.header.arrival_time, ctx_.network().service_s);
+  const double depart = ctx_.serve_interrupt(m.header.arrival_time, ctx_.network().reply_service_s());
   const std::byte* bytes = frames_ + (std::size_t(PageLayout::home_slot(page, nodes_)) << layout_.page_shift);
   ctx_.send(m.source(), nodes::MessageType::kPageReply, PageReplyMsg{page},
             std::span<const std::byte>(bytes, layout_.page_size), depart);

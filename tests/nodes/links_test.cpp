@@ -113,3 +113,42 @@ TEST_CASE("links: under contention two 1 KiB messages over a shared link arrive 
     }
   }
 }
+
+TEST_CASE("network: a node's own send spends send_overhead of its CPU, an interrupt reply's is in its service") {
+  MachineParams p;
+  p.nodes = 2;
+  p.timeout_s = 60;
+  p.network.name = "test";
+  p.network.latency_s = 10;        // large against any CPU time in the test
+  p.network.send_overhead_s = 100;
+  p.network.service_s = 1;
+  CHECK(p.network.reply_service_s() == 101);
+  Machine machine(p);
+  double arrival = 0, reply_arrival = 0, sent_at = 0, clock_after_send = 0;
+  const RunReport r = machine.run(
+      [&](NodeContext& ctx) {
+        const std::byte b{};
+        const std::span<const std::byte> parts[1] = {std::span<const std::byte>(&b, 1)};
+        const std::span<const std::span<const std::byte>> msg(parts, 1);
+        if (ctx.id() == 0) {
+          sent_at = ctx.now();
+          ctx.send(1, MessageType::kTest, msg);  // own send: +100 s of CPU, then 10 s of wire
+          clock_after_send = ctx.now();
+          reply_arrival = ctx.receive(WaitKind::kCommunication).header.arrival_time;
+        } else {
+          const Message m = ctx.receive(WaitKind::kCommunication);
+          arrival = m.header.arrival_time;
+          // The reply as an interrupt handler sends it: departs when its service ends.
+          const double at = ctx.serve_interrupt(arrival, ctx.network().reply_service_s());
+          ctx.send(0, MessageType::kTest, msg, at);
+        }
+      },
+      [](NodeContext&) {});
+  CHECK(arrival >= sent_at + 110);
+  CHECK(arrival <= sent_at + 110.05);
+  CHECK(clock_after_send >= sent_at + 100);
+  CHECK(r.nodes[0].counters.busy_s >= 100);
+  CHECK(reply_arrival == doctest::Approx(arrival + 101 + 10));  // no second overhead on the reply
+  CHECK(r.nodes[1].counters.busy_s >= 101);
+  CHECK(r.nodes[1].counters.busy_s < 101 + 1);
+}
