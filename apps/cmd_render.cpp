@@ -33,19 +33,15 @@
 #include "apps/run_summary.h"
 #include "apps/watchdog.h"
 #include "core/database.h"
-#include "core/direct_view.h"
 #include "core/embree_scene.h"
 #include "core/grid.h"
 #include "core/render.h"
 #include "core/scene_source.h"
-#include "dataflow/dataflow.h"
 #include "modes/modes.h"
 #include "imageio/false_color.h"
 #include "imageio/write_image.h"
 #include "nodes/machine.h"
 #include "nodes/network.h"
-#include "control/replicated.h"
-#include "svm/svm.h"
 
 namespace raynode::apps {
 

@@ -318,10 +318,10 @@ NodeRun run_node_mode(const core::Database& db, const core::Grid& grid, const st
   modes::RunRequest req;
   try {
     req.mode = modes::parse_mode(mode);
+    if (!modes::is_node_mode(req.mode)) throw std::invalid_argument(mode);
   } catch (const std::invalid_argument&) {
     throw UsageError("unknown node mode '" + mode + "' (replicated, svm, dataflow)");
   }
-  if (!modes::is_node_mode(req.mode)) throw UsageError("unknown node mode '" + mode + "' (replicated, svm, dataflow)");
   req.render = spec.render;
   req.nodes = spec;
   req.nodes.machine.nodes = node_count;

@@ -260,16 +260,21 @@ RenderResult render_image(const View& view, const Database& db, const RenderPara
 /// render_image over the plain arrays (DirectView).
 RenderResult render(const Database& db, const Grid& grid, const RenderParams& params);
 
-/// The tracer's entry points over one view type `V` (traverse.h's and
-/// shade.h's, and the pixel's and image's), for explicit instantiation as
+/// The tracer's entry points up to the pixel over one view type `V`
+/// (traverse.h's, shade.h's and the pixel's), for explicit instantiation as
 /// RAYNODE_TRAVERSAL_INSTANCES: `extern` in V's header, empty in one .cpp.
-#define RAYNODE_TRACER_INSTANCES(EXTERN, V)                                                                  \
+/// For views whose pixels a node loop drives (svm's paged views).
+#define RAYNODE_PIXEL_INSTANCES(EXTERN, V)                                                                   \
   RAYNODE_TRAVERSAL_INSTANCES(EXTERN, V);                                                                    \
   EXTERN template SurfaceFrame surface_frame<V>(const V&, const Primitive&, const Ray&, const Hit&);         \
   EXTERN template Vec3 trace_ray<V>(const V&, const ShadingContext&, const Ray&, int, float, ShadingScratch&, \
                                     FirstHit*);                                                              \
   EXTERN template PixelResult render_pixel<V>(const V&, const ShadingContext&, const Camera&, int, int, int,  \
-                                              bool, ShadingScratch&);                                         \
+                                              bool, ShadingScratch&)
+
+/// RAYNODE_PIXEL_INSTANCES and the whole image's (render_image).
+#define RAYNODE_TRACER_INSTANCES(EXTERN, V) \
+  RAYNODE_PIXEL_INSTANCES(EXTERN, V);       \
   EXTERN template RenderResult render_image<V>(const V&, const Database&, const RenderParams&)
 
 // The tracer over DirectView is compiled once, in render.cpp.

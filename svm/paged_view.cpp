@@ -1,7 +1,7 @@
 // The tracer over PagedView, compiled once (core/render.h,
-// RAYNODE_TRACER_INSTANCES).
+// RAYNODE_PIXEL_INSTANCES).
 #include "svm/paged_view.h"
 
 namespace raynode::core {
-RAYNODE_TRACER_INSTANCES(, svm::PagedView);
+RAYNODE_PIXEL_INSTANCES(, svm::PagedView);
 }  // namespace raynode::core

@@ -210,6 +210,6 @@ class BrickedPagedView : public PagedView {
 namespace raynode::core {
 // The tracer over both views is compiled once, in paged_view.cpp and
 // paged_view_bricked.cpp.
-RAYNODE_TRACER_INSTANCES(extern, svm::PagedView);
-RAYNODE_TRACER_INSTANCES(extern, svm::BrickedPagedView);
+RAYNODE_PIXEL_INSTANCES(extern, svm::PagedView);
+RAYNODE_PIXEL_INSTANCES(extern, svm::BrickedPagedView);
 }  // namespace raynode::core

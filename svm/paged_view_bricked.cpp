@@ -1,8 +1,8 @@
 // The tracer over BrickedPagedView, compiled once (core/render.h,
-// RAYNODE_TRACER_INSTANCES); a file of its own so that the two views'
+// RAYNODE_PIXEL_INSTANCES); a file of its own so that the two views'
 // walks compile in parallel.
 #include "svm/paged_view.h"
 
 namespace raynode::core {
-RAYNODE_TRACER_INSTANCES(, svm::BrickedPagedView);
+RAYNODE_PIXEL_INSTANCES(, svm::BrickedPagedView);
 }  // namespace raynode::core
