@@ -206,6 +206,8 @@ void run_bench_nodes(const NodesBenchOptions& o) {
   gp.skip_empty = o.run.skip_empty;
   gp.kind = grid_kind_for(o.run.grid);
   const core::Grid grid = core::build_grid(db, gp);
+  // The model clock checked on this scene once, so that T_1 and every T_p use the same unit costs.
+  const ModelCalibration calibration = calibrate_model_clock(spec.machine, spec.render, db, grid, o.run.calibrate);
   fmt::print(report, "{} {} {}x{}, network {}, node memory {}, clock {}, submaps {}, work grants {}, requests {}, {}, {} "
              "hardware threads, best of {}\n",
              o.mode, o.source.spec, o.run.width, o.run.height, o.run.network, o.run.node_memory, o.run.clock,
@@ -220,6 +222,9 @@ void run_bench_nodes(const NodesBenchOptions& o) {
   const std::vector<double>& pair_ratios = ref.pair_ratios;
   fmt::print(report, "sequential render: {:.4f} s wall, {:.4f} s CPU{}\n", sequential_s, sequential_cpu_s,
              one_node ? " (runs taken in turn with the one-node runs)" : "");
+  if (calibration.measured)
+    fmt::print(report, "model clock: {:+.0f}% against Teapot on this host{}\n", 100 * (calibration.ratio - 1),
+               calibration.applied ? ", unit costs scaled by it (--calibrate)" : "");
   const bool flow = o.mode == "dataflow";
   // Balanced submaps: the host's estimate ran before each run, outside
   // virtual time (as the paper leaves out its data-oriented algorithm's);
@@ -251,6 +256,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
                           {"one_node_over_sequential_median",
                            one_node_median ? nlohmann::json(*one_node_median) : nlohmann::json()},
                           {"one_node_pair_ratios", pair_ratios},
+                          {"model_calibration", calibration.to_json()},
                           {"rows", rows},
                           {"run", run_json()}}
         .dump(2) +

@@ -159,7 +159,7 @@ const std::vector<std::string>& run_columns() {
 /// The columns every sweep row ends with: the settings, and a note (why a
 /// point was skipped, or that T_1 ran with more memory).
 const std::vector<std::string>& setting_columns() {
-  static const std::vector<std::string> c = {"node_memory", "network", "network_scale", "clock",
+  static const std::vector<std::string> c = {"node_memory", "network", "network_scale", "clock", "model_scale",
                                              "width",       "height",  "repeat",        "skip_empty", "note"};
   return c;
 }
@@ -266,6 +266,7 @@ struct SweepFrame {
   core::Database db;
   core::Grid grid;
   NodeRunSpec spec;
+  ModelCalibration calibration;  ///< the model clock on this scene (--calibrate)
   std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
   std::size_t total = 0, done = 0;  ///< runs planned and finished
   bool quiet = false;                ///< -q: no progress lines or notes
@@ -317,6 +318,11 @@ SweepFrame make_frame(const std::string& kind, SweepOptions& o, const std::vecto
   gp.skip_empty = o.run.skip_empty;
   gp.kind = grid_kind_for(o.run.grid);
   f.grid = core::build_grid(f.db, gp);
+  // The model clock checked on this scene once, before every point (--calibrate).
+  f.calibration = calibrate_model_clock(f.spec.machine, f.spec.render, f.db, f.grid, o.run.calibrate);
+  if (f.calibration.measured && !f.quiet)
+    fmt::print(stderr, "model clock: {:+.0f}% against Teapot on this host{}\n", 100 * (f.calibration.ratio - 1),
+               f.calibration.applied ? ", unit costs scaled by it (--calibrate)" : "");
   return f;
 }
 
@@ -326,6 +332,7 @@ void fill_settings(Table& t, std::size_t row, const SweepFrame& f, const SweepOp
   t.set(row, "network", f.spec.machine.network.name);
   if (f.spec.machine.network.name == "ipsc2") t.set(row, "network_scale", num(f.spec.machine.network.scale));
   t.set(row, "clock", nodes::compute_clock_name(f.spec.machine.clock));
+  if (f.calibration.measured) t.set(row, "model_scale", num(f.calibration.applied ? f.calibration.ratio : 1.0));
   t.set(row, "width", fmt::format("{}", o.run.width));
   t.set(row, "height", fmt::format("{}", o.run.height));
   t.set(row, "repeat", fmt::format("{}", o.run.repeat));

@@ -12,6 +12,8 @@
 
 #include "apps/commands.h"
 #include "control/replicated.h"
+#include "core/spd.h"
+#include "nodes/cpu_time.h"
 #include "nodes/topology.h"
 #include "svm/svm.h"
 
@@ -105,6 +107,12 @@ void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) 
                "model (operation counts x calibrated unit costs: repeatable, free of the host's thread switches; "
                "see `raynode bench cost-model`)")
       ->check(CLI::IsMember({"cpu", "model"}))
+      ->capture_default_str();
+  c.add_option("--calibrate", o.calibrate,
+               "Model clock: time a quarter-resolution sample of the scene with the sequential tracer before the "
+               "runs and compare it with the model's seconds; auto scales every unit cost by CPU / model when they "
+               "differ by more than 15%, on always, off never (the stats say which)")
+      ->check(CLI::IsMember({"auto", "on", "off"}))
       ->capture_default_str();
   c.add_option("--stall-timeout", o.stall_timeout_s,
                "Node modes: stop with an error naming what each node waits for when no message was sent for this "
@@ -360,6 +368,63 @@ std::string format_duration(double s) {
   const long t = std::lround(s);
   if (t < 3600) return fmt::format("{} min {:02} s", t / 60, t % 60);
   return fmt::format("{} h {:02} min", t / 3600, (t % 3600) / 60);
+}
+
+nlohmann::json ModelCalibration::to_json() const {
+  if (!measured) return nullptr;
+  return {{"sample", {kCalibrationSample, kCalibrationSample}},
+          {"cpu_s", cpu_s},
+          {"model_s", model_s},
+          {"reference", {{"scene", "teapot:8"}, {"cpu_s", reference_cpu_s}, {"model_s", reference_model_s}}},
+          {"error", ratio - 1},
+          {"applied", applied},
+          {"threshold", kCalibrateAbove}};
+}
+
+namespace {
+
+/// One sequential render of `db` at kCalibrationSample pixels square: its
+/// thread CPU seconds and the model's seconds for its operation counts.
+std::pair<double, double> time_sample(const core::Database& db, const core::Grid& grid, const core::RenderParams& render,
+                                      const core::CostModel& model) {
+  core::RenderParams p;
+  p.width = p.height = kCalibrationSample;
+  p.spp = render.spp;
+  p.max_depth = render.max_depth;
+  p.min_weight = render.min_weight;
+  const double t0 = nodes::thread_cpu_seconds();
+  const core::RenderResult r = core::render(db, grid, p);
+  return {nodes::thread_cpu_seconds() - t0, model.seconds(r.stats.rays, r.stats.traversal)};
+}
+
+}  // namespace
+
+ModelCalibration calibrate_model_clock(nodes::MachineParams& machine, const core::RenderParams& render,
+                                       const core::Database& db, const core::Grid& grid, const std::string& policy) {
+  ModelCalibration c;
+  if (machine.clock != nodes::ComputeClock::kModel || policy == "off") return c;
+  // The reference: the scene the network's scale is measured on (nodes::
+  // model_seconds_per_ray), so that the model's seconds stay Teapot's. The
+  // two are timed in turn, the least of each kept, so that a change of the
+  // host's load touches both.
+  const core::Scene teapot = core::make_spd_scene(core::SpdParams{"teapot", 8, 0});
+  const core::Database tdb = core::make_database(teapot);
+  const core::Grid tgrid = core::build_grid(tdb);
+  for (int i = 0; i < kCalibrationRounds; ++i) {
+    const auto [cpu, modelled] = time_sample(db, grid, render, machine.cost_model);
+    const auto [ref_cpu, ref_modelled] = time_sample(tdb, tgrid, render, machine.cost_model);
+    if (i == 0 || cpu < c.cpu_s) c.cpu_s = cpu;
+    if (i == 0 || ref_cpu < c.reference_cpu_s) c.reference_cpu_s = ref_cpu;
+    c.model_s = modelled;
+    c.reference_model_s = ref_modelled;
+  }
+  c.measured = c.model_s > 0 && c.cpu_s > 0 && c.reference_model_s > 0 && c.reference_cpu_s > 0;
+  if (!c.measured) return c;
+  c.ratio = (c.cpu_s / c.model_s) / (c.reference_cpu_s / c.reference_model_s);
+  c.applied = policy == "on" || std::abs(c.ratio - 1) > kCalibrateAbove;
+  if (c.applied)
+    for (double& u : machine.cost_model.unit_s) u *= c.ratio;
+  return c;
 }
 
 std::string hours_minutes_seconds(double s) {

@@ -19,6 +19,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 #include <algorithm>
 #include <chrono>
 #include <cstddef>
@@ -72,6 +73,7 @@ struct NodeRunOptions {
   double schedule_window_us = 200;      ///< virtual-time scheduling window, microseconds
   std::string mail_wakeups = "auto";   ///< --mail-wakeups: auto, scheduled or immediate
   std::string clock = "cpu";            ///< cpu or model (nodes::ComputeClock)
+  std::string calibrate = "auto";       ///< model clock: auto, on or off (calibrate_model_clock)
   std::string work_requests = "ring";   ///< ring, last-grantor or off (nodes::WorkRequestRoute)
   std::string work_grants = "item";     ///< item, nearest or half (nodes::WorkGrant)
   std::string submaps = "square";       ///< square or balanced (control::SubmapRule)
@@ -126,6 +128,40 @@ struct NodeRunSpec : modes::NodeModeParams {
 /// seconds per ray: measured CPU time, or the cost model's under --clock
 /// model). Throws UsageError naming the option on a bad value.
 NodeRunSpec make_node_run_spec(const NodeRunOptions& o);
+
+/// Pixels on a side of the model clock's calibration sample, and the
+/// rounds of it (each times the scene, then teapot:8; the least of each counts).
+inline constexpr int kCalibrationSample = 128;
+inline constexpr int kCalibrationRounds = 7;
+
+/// The model clock held against this machine on one scene: a sample of it
+/// (the sequential tracer at kCalibrationSample pixels square, the least
+/// thread CPU time of kCalibrationRounds) against the cost model's seconds for the same operation
+/// counts, relative to the same measure on teapot:8, the scene the network's
+/// scale is taken on. A host faster or slower than the model's as a whole
+/// therefore does not count as an error; a scene whose operations cost
+/// this host more or less than the model says, relative to Teapot, does.
+struct ModelCalibration {
+  bool measured = false;            ///< a sample was timed (model clock, --calibrate not off)
+  double cpu_s = 0, model_s = 0;    ///< the scene's sample: CPU seconds and modelled seconds
+  double reference_cpu_s = 0, reference_model_s = 0;  ///< teapot:8's
+  double ratio = 1;                 ///< (cpu_s / model_s) / (reference_cpu_s / reference_model_s)
+  bool applied = false;             ///< the unit costs were scaled by `ratio` for this command's runs
+  /// {"sample", "cpu_s", "model_s", "reference", "error" (ratio - 1), "applied", "threshold"}; null if not measured.
+  nlohmann::json to_json() const;
+};
+/// |ratio - 1| above which --calibrate auto scales the model.
+inline constexpr double kCalibrateAbove = 0.15;
+
+/// Under the model clock (machine.clock), measures machine.cost_model on
+/// `db` (ModelCalibration; spp, depth and weight cut-off from `render`) and,
+/// as `policy` says ("auto": when off by more than kCalibrateAbove; "on":
+/// always; "off": never, and nothing is measured), scales every unit cost
+/// of machine.cost_model by the ratio. The network model (made before,
+/// from the unscaled model) keeps its scale. Call once per scene, before
+/// all the runs compared. Costs 2 x kCalibrationRounds 128x128 sequential renders.
+ModelCalibration calibrate_model_clock(nodes::MachineParams& machine, const core::RenderParams& render,
+                                       const core::Database& db, const core::Grid& grid, const std::string& policy);
 
 /// "3x3" -> {3, 3}; throws UsageError.
 std::pair<int, int> parse_work_item(const std::string& text);

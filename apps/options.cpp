@@ -252,6 +252,7 @@ const std::vector<ModeOptionRule>& mode_option_rules() {
       {"--network", kNodeModes, "the emulated machine's network"},
       {"--network-scale", kNodeModes, "the emulated machine's network"},
       {"--contention", kNodeModes, "the emulated machine's network"},
+      {"--calibrate", kNodeModes, "the emulated machine's virtual time"},
       {"--topology", kNodeModes, "the emulated machine's network"},
       {"--schedule-window", kNodeModes, "the emulated machine's scheduler"},
       {"--mail-wakeups", kNodeModes, "the emulated machine's scheduler"},

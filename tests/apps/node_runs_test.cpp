@@ -77,3 +77,39 @@ TEST_CASE("node runs: hours_minutes_seconds writes Table 3's times") {
   CHECK(apps::hours_minutes_seconds(-1.0) == "?");
   CHECK(apps::hours_minutes_seconds(std::numeric_limits<double>::infinity()) == "?");
 }
+
+TEST_CASE("node runs: calibrate_model_clock measures the model clock on the scene, and scales it as asked") {
+  const testing::BuiltScene b = testing::build_spd("balls", 1);
+  core::RenderParams rp;
+  nodes::MachineParams m;
+  m.clock = nodes::ComputeClock::kModel;
+  const core::CostModel before = m.cost_model;
+  // off: nothing measured, nothing changed.
+  CHECK_FALSE(apps::calibrate_model_clock(m, rp, b.db, b.grid, "off").measured);
+  CHECK(m.cost_model.unit_s == before.unit_s);
+  CHECK(apps::ModelCalibration{}.to_json().is_null());
+  // on: measured against Teapot, every unit cost scaled by the same ratio.
+  const apps::ModelCalibration on = apps::calibrate_model_clock(m, rp, b.db, b.grid, "on");
+  REQUIRE(on.measured);
+  CHECK(on.applied);
+  CHECK(on.cpu_s > 0);
+  CHECK(on.model_s > 0);
+  CHECK(on.reference_cpu_s > 0);
+  CHECK(on.ratio == doctest::Approx((on.cpu_s / on.model_s) / (on.reference_cpu_s / on.reference_model_s)));
+  for (std::size_t i = 0; i < before.unit_s.size(); ++i)
+    CHECK(m.cost_model.unit_s[i] == doctest::Approx(before.unit_s[i] * on.ratio));
+  const nlohmann::json j = on.to_json();
+  CHECK(j["applied"] == true);
+  CHECK(j["error"].get<double>() == doctest::Approx(on.ratio - 1));
+  CHECK(j["reference"]["scene"] == "teapot:8");
+  // auto applies only beyond the threshold.
+  nodes::MachineParams a;
+  a.clock = nodes::ComputeClock::kModel;
+  const apps::ModelCalibration automatic = apps::calibrate_model_clock(a, rp, b.db, b.grid, "auto");
+  REQUIRE(automatic.measured);
+  CHECK(automatic.applied == (std::abs(automatic.ratio - 1) > apps::kCalibrateAbove));
+  // The CPU clock needs none.
+  nodes::MachineParams cpu;
+  cpu.clock = nodes::ComputeClock::kCpu;
+  CHECK_FALSE(apps::calibrate_model_clock(cpu, rp, b.db, b.grid, "on").measured);
+}
