@@ -511,7 +511,7 @@ NodeRunSpec with_cache(NodeRunSpec spec, const CachePoint& p) {
 
 struct CacheSweepOptions : SweepOptions {
   std::uint32_t nodes = 32;
-  std::string cache = "1..100%,max";
+  std::string cache = "1p,1..100%,max";  // from one page, as the paper's Figures 8-10
 };
 
 void run_sweep_cache(CacheSweepOptions& o) {
@@ -656,8 +656,8 @@ void register_sweep_commands(CLI::App& app) {
                 "Cache sizes per node, comma-separated. A number is a percentage of the database's pages (the '%' "
                 "is optional); 'A..B%' = the 1-2-5 series between A and B plus both ends (1..100% = 1,2,5,10,20,"
                 "50,100); 'A..B:N%' = N evenly spaced values from A to B; 'Np' = N pages; 'max' = all the memory a "
-                "node has left after its home pages (svm's default, the paper's right end). A size that does not "
-                "fit --node-memory is reported as skipped")
+                "node has left after its home pages (svm's default, the paper's right end). The default starts at "
+                "one page, as the paper's plots do. A size that does not fit --node-memory is reported as skipped")
       ->capture_default_str();
   c->footer(std::string("Examples (the paper's Figures 8-10): raynode sweep cache rings:4 -t 1;  raynode sweep "
                         "cache tetra:9 --cache 0.1..10%,max\n") +
