@@ -20,7 +20,42 @@ LinkNetwork::LinkNetwork(const Topology& topology) : topology_(topology) {
     case TopologyKind::kTorus2D: ports_ = 4; break;  // +col, -col, +row, -row
   }
   timelines_.resize(std::size_t(ids) * ports_);
+  locks_ = std::make_unique<SpinLock[]>(timelines_.size());
 }
+
+class LinkNetwork::RouteLock {
+ public:
+  /// `sorted` is the caller's buffer, filled here (a thread's own, reused).
+  RouteLock(LinkNetwork& net, const std::vector<std::uint32_t>& route, std::vector<std::uint32_t>& sorted)
+      : net_(net), sorted_(sorted) {
+    sorted_.assign(route.begin(), route.end());
+    std::sort(sorted_.begin(), sorted_.end());
+    for (std::uint32_t l : sorted_) net_.locks_[l].lock();
+  }
+  ~RouteLock() {
+    for (std::uint32_t l : sorted_) net_.locks_[l].unlock();
+  }
+  RouteLock(const RouteLock&) = delete;
+  RouteLock& operator=(const RouteLock&) = delete;
+
+ private:
+  LinkNetwork& net_;
+  std::vector<std::uint32_t>& sorted_;
+};
+
+namespace {
+
+/// The calling thread's route buffers (no allocation per message).
+std::vector<std::uint32_t>& route_buffer() {
+  thread_local std::vector<std::uint32_t> links;
+  return links;
+}
+std::vector<std::uint32_t>& sorted_buffer() {
+  thread_local std::vector<std::uint32_t> links;
+  return links;
+}
+
+}  // namespace
 
 void LinkNetwork::route(NodeId a, NodeId b, std::vector<std::uint32_t>& links) const {
   links.clear();
@@ -60,13 +95,14 @@ void LinkNetwork::route(NodeId a, NodeId b, std::vector<std::uint32_t>& links) c
 }
 
 double LinkNetwork::reserve(NodeId a, NodeId b, double ready, double hold) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  route(a, b, scratch_);
+  std::vector<std::uint32_t>& links = route_buffer();
+  route(a, b, links);
+  const RouteLock lock(*this, links, sorted_buffer());
   double start = ready;
   // Move the start past each conflict until one time suits every link.
   for (bool moved = true; moved;) {
     moved = false;
-    for (std::uint32_t l : scratch_) {
+    for (std::uint32_t l : links) {
       const double s = timelines_[l].first_gap(start, hold);
       if (s > start) {
         start = s;
@@ -74,14 +110,15 @@ double LinkNetwork::reserve(NodeId a, NodeId b, double ready, double hold) {
       }
     }
   }
-  for (std::uint32_t l : scratch_) timelines_[l].book(start, hold);
+  for (std::uint32_t l : links) timelines_[l].book(start, hold);
   return start;
 }
 
-void LinkNetwork::cancel(NodeId a, NodeId b, double start) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  route(a, b, scratch_);
-  for (std::uint32_t l : scratch_) timelines_[l].cancel(start);
+void LinkNetwork::cancel(NodeId a, NodeId b, double start, double hold) {
+  std::vector<std::uint32_t>& links = route_buffer();
+  route(a, b, links);
+  const RouteLock lock(*this, links, sorted_buffer());
+  for (std::uint32_t l : links) timelines_[l].cancel(start, hold);
 }
 
 }  // namespace raynode::nodes

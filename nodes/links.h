@@ -16,11 +16,14 @@
 // to or from the host (attached to node 0) do not contend: the host's own
 // connection is not a hypercube link.
 //
-// Thread safety: every node thread reserves through one mutex.
+// Thread safety: a reservation locks the links of its route (per-link locks,
+// taken in ascending order).
 #pragma once
 
 #include <cstdint>
-#include <mutex>
+#include <atomic>
+#include <memory>
+#include <thread>
 #include <vector>
 
 #include "nodes/arena.h"
@@ -43,7 +46,7 @@ class LinkNetwork {
   double reserve(NodeId a, NodeId b, double ready, double hold);
   /// Gives back a reservation made at `start` (a send that found the
   /// destination mailbox full and will be made again).
-  void cancel(NodeId a, NodeId b, double start);
+  void cancel(NodeId a, NodeId b, double start, double hold);
 
   /// Directed links in all (for tests).
   std::size_t links() const { return timelines_.size(); }
@@ -54,8 +57,24 @@ class LinkNetwork {
   const Topology& topology_;
   std::uint32_t ports_ = 1;  ///< directed links leaving each node
   std::vector<BusyTimeline> timelines_;
-  std::vector<std::uint32_t> scratch_;  ///< a route, under mutex_
-  std::mutex mutex_;
+  /// A short spin lock per link: held for a few map operations, and only
+  /// the few node threads that hold run permits send at once (scheduler.h),
+  /// so a waiter spins briefly and yields rather than sleeping in the kernel.
+  class SpinLock {
+   public:
+    void lock() {
+      for (int spins = 0; flag_.test_and_set(std::memory_order_acquire); ++spins)
+        if (spins >= 64) std::this_thread::yield();
+    }
+    void unlock() { flag_.clear(std::memory_order_release); }
+
+   private:
+    std::atomic_flag flag_ = ATOMIC_FLAG_INIT;
+  };
+  /// Locks the links of `route` (ascending ids, so two reservations never
+  /// wait for each other in a cycle), unlocks them on destruction.
+  class RouteLock;
+  std::unique_ptr<SpinLock[]> locks_;  ///< one per link
 };
 
 }  // namespace raynode::nodes

@@ -96,6 +96,13 @@ class Mailbox {
   /// system call (one acquire load): the cheap check before a poll.
   bool has_message() const { return nonempty_for_consumer(); }
 
+  /// Any thread: is the next slot still taken (a push now would find the
+  /// mailbox full)? One relaxed and one acquire load; a hint, as the owner
+  /// may pop at once.
+  bool looks_full() const {
+    const std::uint64_t pos = enqueue_pos_.load(std::memory_order_relaxed);
+    return std::int64_t(slot(pos)->seq.load(std::memory_order_acquire)) - std::int64_t(pos) < 0;
+  }
   /// Approximate number of queued messages (any thread; for statistics).
   std::uint32_t approximate_size() const;
   /// Owner thread only: positions producers have claimed and the owner has

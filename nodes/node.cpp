@@ -295,9 +295,17 @@ bool NodeContext::try_send(NodeId dest, MessageType type, std::span<const std::s
   // Under link contention the message streams through its route once every
   // link of it is free (links.h); else it never waits for a link.
   const bool contended = machine_->links && !is_host() && dest != kHost && hops > 0;
-  double ready = 0, entered = 0;
+  // A destination that looks full refuses the message before any link is
+  // reserved (dataflow tries full mailboxes often; a reservation would be
+  // cancelled at once).
+  if (contended && machine_->context(dest).mailbox().looks_full()) {
+    if (!stamp_now) sync_compute();
+    end_messaging();
+    return false;
+  }
+  double ready = 0, entered = 0, hold = 0;
   if (contended) {
-    const double hold = double(h.wire_bytes) * net.per_byte_s + double(hops) * net.per_hop_s;
+    hold = double(h.wire_bytes) * net.per_byte_s + double(hops) * net.per_hop_s;
     ready = h.send_time + net.latency_s;
     entered = machine_->links->reserve(id_, dest, ready, hold);
     h.arrival_time = entered + hold;
@@ -317,7 +325,7 @@ bool NodeContext::try_send(NodeId dest, MessageType type, std::span<const std::s
       counters_.link_wait_s += entered - ready;
     }
   } else if (contended) {
-    machine_->links->cancel(id_, dest, entered);  // not sent: the links were never used
+    machine_->links->cancel(id_, dest, entered, hold);  // not sent: the links were never used
   }
   // A plain copy into the mailbox (~0.1 µs) is left to the node's computing,
   // as a real node's send overhead: reading the CPU clock to exclude it

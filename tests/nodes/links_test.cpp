@@ -55,20 +55,27 @@ TEST_CASE("links: a message waits for a link another holds, while other links an
   CHECK(net.reserve(3, 1, 1.2, 0.5) == 1.2);  // the other direction
   CHECK(net.reserve(0, 1, 0.2, 0.5) == 0.2);  // booked later, earlier in virtual time: the gap before
   CHECK(net.reserve(0, 1, 0.6, 0.5) == 1.5);  // 0 -> 1 is held over [0.2, 0.7) and [1.0, 1.5): [0.7, 1.0) is too short
-  net.cancel(0, 1, 1.5);
+  net.cancel(0, 1, 1.5, 0.5);
   CHECK(net.reserve(0, 1, 1.6, 0.5) == 1.6);  // the cancelled period is free again
 }
 
-TEST_CASE("timeline: first fit, cancel, and bounded memory") {
+TEST_CASE("timeline: first fit, merged periods, cancel, and bounded memory") {
   BusyTimeline t;
   CHECK(t.take(1.0, 1.0) == 1.0);
   CHECK(t.take(0.0, 0.5) == 0.0);
-  CHECK(t.take(0.2, 0.6) == 2.0);  // [0.5, 1.0) is too short
-  CHECK(t.take(0.5, 0.5) == 0.5);  // fits exactly
-  t.cancel(2.0);
+  CHECK(t.take(0.2, 0.6) == 2.0);  // [0.5, 1.0) is too short; [2.0, 2.6) joins [1.0, 2.0)
+  CHECK(t.periods() == 2);
+  CHECK(t.take(0.5, 0.5) == 0.5);  // fits exactly, and joins both neighbours
+  CHECK(t.periods() == 1);
+  t.cancel(2.0, 0.6);  // [0, 2.6) -> [0, 2.0)
   CHECK(t.first_gap(1.9, 0.5) == 2.0);
-  t.book(5.0, 0.0);  // zero length: nothing booked
-  CHECK(t.periods() == 3);
+  t.cancel(0.5, 0.5);  // a hole in the middle: [0, 0.5) and [1.0, 2.0)
+  CHECK(t.periods() == 2);
+  CHECK(t.first_gap(0.2, 0.5) == 0.5);
+  CHECK(t.first_gap(0.2, 0.6) == 2.0);
+  t.cancel(7.0, 1.0);  // never booked: nothing changes
+  t.book(5.0, 0.0);    // zero length: nothing booked
+  CHECK(t.periods() == 2);
   for (std::size_t i = 0; i < 2 * BusyTimeline::kMaxPeriods; ++i) t.take(10.0 + double(i), 0.5);
   CHECK(t.periods() <= BusyTimeline::kMaxPeriods);
   CHECK(t.periods() >= BusyTimeline::kMaxPeriods / 2);
