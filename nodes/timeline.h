@@ -14,8 +14,8 @@
 // separate periods the earlier half is forgotten, so a request that far
 // behind finds the resource free there (optimistic by at most the forgotten
 // periods' overlap with it; the scheduler's window keeps real bookings close
-// to each other in virtual time). A flat sorted array: a few hundred
-// periods stay in cache, and a booking allocates nothing.
+// to each other in virtual time). A flat sorted array: binary search in
+// contiguous memory, and a booking allocates nothing once it has grown.
 #pragma once
 
 #include <algorithm>
@@ -28,7 +28,7 @@ namespace raynode::nodes {
 class BusyTimeline {
  public:
   /// Periods kept before the earlier half is forgotten.
-  static constexpr std::size_t kMaxPeriods = 256;
+  static constexpr std::size_t kMaxPeriods = 4096;
 
   /// The start of the first gap of at least `length` virtual seconds at or
   /// after `earliest`; books nothing.
