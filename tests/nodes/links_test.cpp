@@ -159,3 +159,49 @@ TEST_CASE("network: a node's own send spends send_overhead of its CPU, an interr
   CHECK(r.nodes[1].counters.busy_s >= 101);
   CHECK(r.nodes[1].counters.busy_s < 101 + 1);
 }
+
+TEST_CASE("timeline: first fit agrees with a plain list of busy periods over random bookings and cancels") {
+  // The reference: every booking kept as its own period, searched linearly.
+  struct Reference {
+    std::vector<std::pair<double, double>> periods;
+    bool free(double s, double e) const {
+      for (const auto& [a, b] : periods)
+        if (a < e && s < b) return false;
+      return true;
+    }
+    double first_gap(double earliest, double length) const {
+      std::vector<double> candidates{earliest};
+      for (const auto& p : periods)
+        if (p.second >= earliest) candidates.push_back(p.second);
+      std::sort(candidates.begin(), candidates.end());
+      for (double c : candidates)
+        if (free(c, c + length)) return c;
+      return -1;
+    }
+  };
+  std::uint64_t seed = 12345;
+  auto uniform = [&seed](double lo, double hi) {
+    seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+    return lo + (hi - lo) * double(seed >> 11) / double(1ull << 53);
+  };
+  BusyTimeline t;
+  Reference ref;
+  std::vector<std::pair<double, double>> booked;
+  for (int i = 0; i < 3000; ++i) {
+    if (!booked.empty() && uniform(0, 1) < 0.2) {  // cancel a random earlier booking
+      const std::size_t k = std::size_t(uniform(0, double(booked.size())));
+      const auto [s, len] = booked[std::min(k, booked.size() - 1)];
+      t.cancel(s, len);
+      ref.periods.erase(std::find(ref.periods.begin(), ref.periods.end(), std::make_pair(s, s + len)));
+      booked.erase(std::find(booked.begin(), booked.end(), std::make_pair(s, len)));
+      continue;
+    }
+    const double earliest = uniform(0, 100), length = uniform(0.01, 0.5);
+    const double expected = ref.first_gap(earliest, length);
+    const double got = t.take(earliest, length);
+    REQUIRE(got == doctest::Approx(expected));
+    ref.periods.emplace_back(got, got + length);
+    booked.emplace_back(got, length);
+  }
+  CHECK(t.periods() <= BusyTimeline::kMaxPeriods);
+}
