@@ -222,9 +222,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
   const std::vector<double>& pair_ratios = ref.pair_ratios;
   fmt::print(report, "sequential render: {:.4f} s wall, {:.4f} s CPU{}\n", sequential_s, sequential_cpu_s,
              one_node ? " (runs taken in turn with the one-node runs)" : "");
-  if (calibration.measured)
-    fmt::print(report, "model clock: {:+.0f}% against Teapot on this host{}\n", 100 * (calibration.ratio - 1),
-               calibration.applied ? ", unit costs scaled by it (--calibrate)" : "");
+  if (calibration.measured) fmt::print(report, "{}\n", calibration.summary());
   const bool flow = o.mode == "dataflow";
   // Balanced submaps: the host's estimate ran before each run, outside
   // virtual time (as the paper leaves out its data-oriented algorithm's);

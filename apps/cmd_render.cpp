@@ -159,9 +159,8 @@ core::RenderResult render_frame(const RenderOptions& o, const core::Database& db
                                 const core::RenderParams& params, bool node_aov, bool pages_aov, FrameExtras& extras) {
   modes::RunRequest req = render_request(o, accel, params, node_aov, pages_aov);
   // The model clock checked on this scene (--calibrate), before the run.
-  ModelCalibration calibration;
   if (modes::is_node_mode(req.mode) && accel.grid)
-    calibration = calibrate_model_clock(req.nodes.machine, params, db, *accel.grid, o.run.calibrate);
+    extras.calibration = calibrate_model_clock(req.nodes.machine, params, db, *accel.grid, o.run.calibrate);
   modes::RunResult r = [&] {
     try {
       return modes::render(db, accel.grid ? &*accel.grid : nullptr, req);
@@ -171,7 +170,7 @@ core::RenderResult render_frame(const RenderOptions& o, const core::Database& db
     }
   }();
   node_mode_json(r, o.nodes, extras);
-  if (calibration.measured) extras.nodes["model_calibration"] = calibration.to_json();
+  if (extras.calibration.measured) extras.nodes["model_calibration"] = extras.calibration.to_json();
   extras.node = std::move(r.node);
   extras.pages = std::move(r.pages);
   extras.region = std::move(r.region);
@@ -333,11 +332,7 @@ void run_render(const RenderOptions& o) {
              s.rays.shadow, s.rays.reflected, s.rays.refracted, s.rays.total());
   for (const std::string& line : node_run_summary(extras.nodes, extras.svm, extras.dataflow))
     fmt::print(report, "{}\n", line);
-  if (extras.nodes.is_object() && extras.nodes.contains("model_calibration")) {
-    const nlohmann::json& c = extras.nodes["model_calibration"];
-    fmt::print(report, "model clock: {:+.0f}% against Teapot on this host{}\n", 100 * c["error"].get<double>(),
-               c["applied"].get<bool>() ? ", unit costs scaled by it (--calibrate)" : "");
-  }
+  if (extras.calibration.measured) fmt::print(report, "{}\n", extras.calibration.summary());
   for (const auto& [name, path] : outputs.aov_files()) fmt::print(report, "{}: {}\n", name, path);
 }
 

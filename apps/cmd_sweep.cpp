@@ -320,9 +320,7 @@ SweepFrame make_frame(const std::string& kind, SweepOptions& o, const std::vecto
   f.grid = core::build_grid(f.db, gp);
   // The model clock checked on this scene once, before every point (--calibrate).
   f.calibration = calibrate_model_clock(f.spec.machine, f.spec.render, f.db, f.grid, o.run.calibrate);
-  if (f.calibration.measured && !f.quiet)
-    fmt::print(stderr, "model clock: {:+.0f}% against Teapot on this host{}\n", 100 * (f.calibration.ratio - 1),
-               f.calibration.applied ? ", unit costs scaled by it (--calibrate)" : "");
+  if (f.calibration.measured && !f.quiet) fmt::print(stderr, "{}\n", f.calibration.summary());
   return f;
 }
 

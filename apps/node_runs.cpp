@@ -399,6 +399,11 @@ std::pair<double, double> time_sample(const core::Database& db, const core::Grid
 
 }  // namespace
 
+std::string ModelCalibration::summary() const {
+  return fmt::format("model clock: {:+.0f}% against Teapot on this host{}", 100 * (ratio - 1),
+                     applied ? ", unit costs scaled by it (--calibrate)" : "");
+}
+
 ModelCalibration calibrate_model_clock(nodes::MachineParams& machine, const core::RenderParams& render,
                                        const core::Database& db, const core::Grid& grid, const std::string& policy) {
   ModelCalibration c;

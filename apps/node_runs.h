@@ -149,6 +149,8 @@ struct ModelCalibration {
   bool applied = false;             ///< the unit costs were scaled by `ratio` for this command's runs
   /// {"sample", "cpu_s", "model_s", "reference", "error" (ratio - 1), "applied", "threshold"}; null if not measured.
   nlohmann::json to_json() const;
+  /// The line commands print: "model clock: +40% against Teapot on this host, unit costs scaled by it (--calibrate)".
+  std::string summary() const;
 };
 /// |ratio - 1| above which --calibrate auto scales the model.
 inline constexpr double kCalibrateAbove = 0.15;

@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "apps/node_runs.h"
 #include "core/cell_blocks.h"
 #include "core/database.h"
 #include "core/grid.h"
@@ -27,6 +28,7 @@ struct FrameExtras {
   nlohmann::json svm;    ///< the "svm" object of --stats
   core::Image region;    ///< --aov region (dataflow)
   nlohmann::json dataflow;  ///< the "dataflow" object of --stats
+  ModelCalibration calibration;  ///< the model clock checked on the scene (--calibrate)
 };
 
 /// Fills `extras`' JSON objects from a node-mode run `r` of `nodes` nodes:
