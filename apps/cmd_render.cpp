@@ -31,6 +31,7 @@
 #include "apps/progress.h"
 #include "apps/render_stats.h"
 #include "apps/run_summary.h"
+#include "apps/transports.h"
 #include "apps/watchdog.h"
 #include "core/database.h"
 #include "core/embree_scene.h"
@@ -65,6 +66,9 @@ struct RenderOptions {
   std::vector<std::string> aovs;
   bool quiet = false;
   double timeout_s = 0;  ///< --timeout: the process's watchdog (apps/watchdog.h)
+  std::string transport = "local";  ///< --transport: local (the emulator) or mpi (apps/transports.h)
+  bool nodes_given = false;         ///< --nodes was on the command line
+  nodes::Transport* transport_impl = nullptr;  ///< set by run_render under --transport mpi
   /// The emulated machine and the node modes: the options every node-mode
   /// command declares once (add_node_run_options); in-process modes refuse them.
   NodeRunOptions run;
@@ -77,6 +81,7 @@ NodeRunSpec node_spec(const RenderOptions& o) {
   NodeRunSpec spec = make_node_run_spec(o.run);
   spec.machine.nodes = std::uint32_t(o.nodes);
   spec.machine.timeout_s = 0;
+  spec.machine.transport = o.transport_impl;
   return spec;
 }
 
@@ -296,11 +301,32 @@ std::uint64_t frame_pixels(const RenderOptions& o, const core::Database& db, cor
          std::uint64_t(params.height > 0 ? params.height : cam_view.height);
 }
 
-void run_render(const RenderOptions& o) {
+/// Under --transport mpi: starts MPI, takes the node count from the ranks
+/// and records the transport in `o`. Throws UsageError for a --nodes other
+/// than the ranks.
+std::unique_ptr<nodes::Transport> open_transport(RenderOptions& o) {
+  std::unique_ptr<nodes::Transport> t = make_transport(o.transport);
+  if (!t) return t;
+  const int ranks = int(t->processes());
+  if (o.nodes_given && o.nodes != ranks)
+    throw UsageError(fmt::format("--nodes {} under --transport mpi: the MPI job has {} ranks, one node each (leave "
+                                 "--nodes out, or mpirun -np {})",
+                                 o.nodes, ranks, o.nodes));
+  o.nodes = ranks;
+  o.transport_impl = t.get();
+  return t;
+}
+
+void run_render(RenderOptions& o) {
   bool node_aov = false, pages_aov = false;
   core::RenderParams params = render_params(o, node_aov, pages_aov);
   if (o.grid.given && o.accel == "embree") throw UsageError("--grid is for --accel grid; --accel embree builds no grid");
-  RenderOutputs outputs(o);
+  const std::unique_ptr<nodes::Transport> transport = open_transport(o);
+  // Under MPI only rank 0, the host's, writes and reports; the others run their node.
+  const bool writer = !transport || transport->process() == 0;
+  if (!writer) o.quiet = true;
+  std::optional<RenderOutputs> outputs;
+  if (writer) outputs.emplace(o);
   const auto [scene, db] = load_database(o);
   const Accelerator accel = build_accelerator(o, db);
   const std::uint64_t pixels = frame_pixels(o, db, params);
@@ -315,15 +341,16 @@ void run_render(const RenderOptions& o) {
   const double cpu_s = double(std::clock() - c0) / CLOCKS_PER_SEC;
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   progress.finish();
+  if (!outputs) return;
 
-  outputs.images(result, extras);
-  if (outputs.wants_stats())
-    outputs.stats(render_stats_json(RenderRecord{
+  outputs->images(result, extras);
+  if (outputs->wants_stats())
+    outputs->stats(render_stats_json(RenderRecord{
         o.source.spec, o.source.tessellate, o.mode, o.accel, o.output, o.nodes, params, result, wall_s, cpu_s, scene,
         db, accel.grid ? &*accel.grid : nullptr, accel.blocks ? &*accel.blocks : nullptr, accel.build_s,
-        o.skip_empty, extras, outputs.aov_files()}));
-  std::FILE* report = outputs.report();  // before commit, which releases the outputs
-  outputs.commit();
+        o.skip_empty, extras, outputs->aov_files()}));
+  std::FILE* report = outputs->report();  // before commit, which releases the outputs
+  outputs->commit();
   if (o.quiet) return;
   const core::RenderStats& s = result.stats;
   fmt::print(report, "{}: {}x{} spp {}x{} mode {} accel {} in {:.3f} s wall ({:.3f} s cpu)\n", o.output,
@@ -333,7 +360,7 @@ void run_render(const RenderOptions& o) {
   for (const std::string& line : node_run_summary(extras.nodes, extras.svm, extras.dataflow))
     fmt::print(report, "{}\n", line);
   if (extras.calibration.measured) fmt::print(report, "{}\n", extras.calibration.summary());
-  for (const auto& [name, path] : outputs.aov_files()) fmt::print(report, "{}: {}\n", name, path);
+  for (const auto& [name, path] : outputs->aov_files()) fmt::print(report, "{}: {}\n", name, path);
 }
 
 }  // namespace
@@ -415,13 +442,21 @@ void register_render_command(CLI::App& app) {
                 "modes the message names what each node waits for")
       ->check(finite_range(0, kNoBound));
   c->add_flag("--quiet,-q", o->quiet, "Print nothing on success, no progress line");
+  c->add_option("--transport", o->transport,
+                std::string("Where the node modes' participants run: local (the emulator: every node a thread of this "
+                            "process) or mpi (under mpirun -np N: node r on MPI rank r, the host a thread of rank 0, "
+                            "N nodes; only rank 0 writes files)") +
+                    (have_mpi_transport() ? "" : "; this build has no MPI"))
+      ->check(CLI::IsMember({"local", "mpi"}))
+      ->capture_default_str();
   c->callback([o, c] {
     o->pack_given = c->get_option("--pack-cells")->count() > 0;
+    o->nodes_given = c->get_option("--nodes")->count() > 0;
     // `render SCENE --nodes=N` is how users are told to render on N nodes:
-    // without --mode it runs the paper's main algorithm.
-    if (o->nodes > 1 && c->get_option("--mode")->count() == 0) {
+    // without --mode it runs the paper's main algorithm; so does an MPI job.
+    if ((o->nodes > 1 || o->transport == "mpi") && c->get_option("--mode")->count() == 0) {
       o->mode = "svm";
-      if (!o->quiet)
+      if (!o->quiet && o->transport != "mpi")
         fmt::print(stderr, "raynode: --nodes {} without --mode: rendering with svm, the paper's shared virtual memory "
                            "algorithm (--mode replicated or dataflow picks another)\n",
                    o->nodes);

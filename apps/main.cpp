@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "apps/commands.h"
+#include "apps/transports.h"
 #include "apps/help_format.h"
 #include "apps/output_files.h"
 #include "apps/run_info.h"
@@ -95,7 +96,7 @@ std::optional<std::string> unknown_options(const CLI::App& app) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+static int run_main(int argc, char** argv) {
   using namespace raynode;
   apps::mark_process_start();  // --timeout counts from here
   apps::install_cleanup_handlers();
@@ -154,4 +155,10 @@ int main(int argc, char** argv) {
     return 1;
   }
   return 0;
+}
+
+int main(int argc, char** argv) {
+  const int rc = run_main(argc, argv);
+  raynode::apps::end_transport_session(rc);  // MPI: finalize, or end the other ranks after a failure
+  return rc;
 }

@@ -144,6 +144,8 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
     }
     states[ctx.id()].reset();
   });
+  machine.gather(out.tracing);  // another process's nodes' counters (a transport), to the host's
+  machine.gather(out.work);
   for (const core::RenderStats& s : out.tracing) out.render.stats += s;
   return out;
 }

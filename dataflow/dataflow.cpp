@@ -280,6 +280,7 @@ DataflowResult render_dataflow(const core::Database& db, const core::Grid& grid,
     if (states[ctx.id()]) out.per_node[ctx.id()] = states[ctx.id()]->stats;
     states[ctx.id()].reset();
   });
+  machine.gather(out.per_node);  // another process's nodes' counters (a transport), to the host's
 
   const float inv = 1.0f / float(rp.spp * rp.spp);
   for (std::size_t i = 0; i < std::size_t(w) * h; ++i)

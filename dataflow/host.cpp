@@ -97,7 +97,8 @@ class Host {
     const std::size_t rec = head.kind == 0 ? sizeof(Contribution) : sizeof(FirstHitRecord);
     if (tail.size() != head.count * rec)
       throw std::logic_error(
-          fmt::format("host: a contribution message of {} B for {} records", tail.size(), head.count));
+          fmt::format("host: a contribution message from node {} of {} B for {} records of kind {}", msg.source(),
+                      tail.size(), head.count, head.kind));
     ++received_;
     const std::uint32_t w = std::uint32_t(frame_.width), pixels = w * std::uint32_t(frame_.height);
     for (std::uint32_t i = 0; i < head.count; ++i) {

@@ -40,6 +40,7 @@ MachineState::MachineState(const MachineParams& p)
       topology(p.topology, p.nodes),
       finished(new std::atomic<bool>[p.nodes]) {
   for (std::uint32_t i = 0; i < p.nodes; ++i) finished[i].store(false, std::memory_order_relaxed);
+  nodes.resize(p.nodes);  // null until built: where a transport runs a node elsewhere, for good
   const std::uint32_t permits =
       p.run_permits > 0 ? p.run_permits : std::max(1u, std::thread::hardware_concurrency());
   scheduler = std::make_unique<Scheduler>(
@@ -82,9 +83,21 @@ Machine::Machine(const MachineParams& params) : params_(params) {
   if (params_.nodes < 1 || params_.nodes > kMaxNodes)
     throw std::invalid_argument(fmt::format("--nodes must be 1..{}, got {}", kMaxNodes, params_.nodes));
   if (params_.node_memory == 0) throw std::invalid_argument("--node-memory must be > 0");
-  check_nodes_fit_host(params_.nodes, params_.node_memory, host_physical_memory());
   if (params_.max_payload == 0) throw std::invalid_argument("message payload limit must be > 0");
   if (params_.mailbox_capacity == 0) params_.mailbox_capacity = 2 * params_.nodes + 32;
+  if (Transport* t = params_.transport) {
+    if (params_.nodes != t->processes())
+      throw std::invalid_argument(fmt::format("the {} transport runs one node per process: {} processes, {} nodes",
+                                              t->name(), t->processes(), params_.nodes));
+    check_nodes_fit_host(1, params_.node_memory, host_physical_memory());
+    // Each process has its own cores and the links are real: no virtual-time
+    // scheduling across processes, no emulated contention.
+    params_.schedule_window_s = -1;
+    params_.scheduled_mail = false;
+    params_.network.contention = false;
+  } else {
+    check_nodes_fit_host(params_.nodes, params_.node_memory, host_physical_memory());
+  }
 }
 
 namespace {
@@ -111,8 +124,9 @@ NodeError to_node_error(NodeId node, std::exception_ptr e) {
   return NodeError(node, what, !fits);
 }
 
-NodeReport make_report(NodeContext& ctx, double clock) {
+NodeReport make_report(NodeContext& ctx, double clock, double wall) {
   NodeReport r;
+  r.wall_s = wall;
   r.id = ctx.id();
   r.counters = ctx.counters();
   r.clock_s = clock;
@@ -133,6 +147,7 @@ std::string describe_waits(MachineState& state) {
   std::string out;
   std::size_t shown = 0, finished = 0;
   for (const auto& node : state.nodes) {
+    if (!node) continue;  // run by another process
     if (state.finished[node->id()].load(std::memory_order_acquire)) {
       ++finished;
       continue;
@@ -141,24 +156,34 @@ std::string describe_waits(MachineState& state) {
   }
   if (shown > 64) out += fmt::format("... {} more; ", shown - 64);
   if (finished) out += fmt::format("{} nodes finished; ", finished);
-  out += state.host->describe_wait() + "; " + state.scheduler->describe();
+  if (state.host) out += state.host->describe_wait() + "; ";
+  out += state.scheduler->describe();
   return out;
 }
 
-/// Builds every node's context and the host's (their mailboxes come out of
-/// their arenas), then runs `setup` on each node. Throws NodeError naming
-/// the node that failed (does_not_fit when its arena ran out).
+/// Does this process run participant `id`?
+bool runs_here(const MachineParams& params, NodeId id) {
+  const Transport* t = params.transport;
+  return !t || t->process_of(id, params.nodes) == t->process();
+}
+
+/// Builds the context of every node this process runs and the host's (their
+/// mailboxes come out of their arenas), then runs `setup` on each of those
+/// nodes. Throws NodeError naming the node that failed (does_not_fit when
+/// its arena ran out).
 void build_participants(MachineState& state, const MachineParams& params, const Machine::Main& setup) {
   const std::uint32_t n = params.nodes;
   try {
-    state.nodes.reserve(n);
     for (NodeId i = 0; i < n; ++i)
-      state.nodes.push_back(
-          std::make_unique<NodeContext>(state, i, params.node_memory, params.mailbox_capacity, params.max_payload));
-    state.host = std::make_unique<NodeContext>(state, kHost, SIZE_MAX, params.host_mailbox_capacity,
-                                               params.max_payload);
+      if (runs_here(params, i))
+        state.nodes[i] =
+            std::make_unique<NodeContext>(state, i, params.node_memory, params.mailbox_capacity, params.max_payload);
+    if (runs_here(params, kHost))
+      state.host = std::make_unique<NodeContext>(state, kHost, SIZE_MAX, params.host_mailbox_capacity,
+                                                 params.max_payload);
     if (setup)
       for (NodeId i = 0; i < n; ++i) {
+        if (!state.nodes[i]) continue;
         try {
           setup(*state.nodes[i]);
         } catch (...) {
@@ -211,26 +236,53 @@ void watch_run(MachineState& state, const MachineParams& params, std::unique_loc
 
 /// The report of a finished run: each participant's counters at its final
 /// clock (`final_clock`: the nodes', then the host's), T_p, the scheduler's.
-RunReport make_run_report(MachineState& state, const MachineParams& params, const std::vector<double>& final_clock) {
+RunReport make_run_report(MachineState& state, const MachineParams& params, const std::vector<double>& final_clock,
+                          const std::vector<double>& wall) {
   const std::uint32_t n = params.nodes;
   RunReport report;
   report.network = params.network.name;
+  if (params.transport) report.transport = params.transport->name();
   report.contention = params.network.contention;
   report.topology = topology_name(params.topology);
   report.clock = compute_clock_name(params.clock);
   report.work_requests = work_request_route_name(params.work_request_route);
   report.work_grants = work_grant_name(params.work_grant);
+  report.nodes.resize(n);
   for (NodeId i = 0; i < n; ++i) {
-    report.nodes.push_back(make_report(*state.nodes[i], final_clock[i]));
-    const NodeReport& nr = report.nodes.back();
-    report.parallel_time_s = std::max(report.parallel_time_s, nr.work_done_s >= 0 ? nr.work_done_s : nr.clock_s);
+    if (state.nodes[i]) report.nodes[i] = make_report(*state.nodes[i], final_clock[i], wall[i]);
+    else report.nodes[i].id = i;
   }
-  report.host = make_report(*state.host, final_clock[n]);
+  if (params.transport) gather_per_node(*params.transport, report.nodes);
+  for (const NodeReport& nr : report.nodes)
+    report.parallel_time_s = std::max(report.parallel_time_s, nr.work_done_s >= 0 ? nr.work_done_s : nr.clock_s);
+  if (state.host) report.host = make_report(*state.host, final_clock[n], wall[n]);
   report.compute_grants = state.scheduler->compute_grants();
   report.handoffs = state.scheduler->handoffs();
   report.service_grants = state.scheduler->service_grants();
   report.scheduled_mail = state.scheduler->scheduled_mail();
   return report;
+}
+
+/// Hands a message that came through the transport to its participant's
+/// mailbox, waiting while the mailbox is full; drops it when the participant
+/// has finished (as a send to a finished node would fail here) or the run
+/// stops.
+void deliver_to(MachineState& state, NodeId dest, const MessageHeader& header, std::span<const std::byte> payload) {
+  const bool known = dest == kHost ? state.host != nullptr : dest < state.params.nodes && state.nodes[dest];
+  auto gone = [&] {
+    return state.stop.load(std::memory_order_acquire) ||
+           (dest == kHost ? state.host_finished.load(std::memory_order_acquire)
+                          : state.finished[dest].load(std::memory_order_acquire));
+  };
+  if (!known || gone()) return;
+  const std::span<const std::byte> parts[1] = {payload};
+  int spins = 0;
+  while (!state.context(dest).mailbox().try_push(header, parts)) {
+    if (gone()) return;
+    if (++spins < 64) std::this_thread::yield();
+    else std::this_thread::sleep_for(std::chrono::microseconds(50));
+  }
+  state.progress.fetch_add(1, std::memory_order_relaxed);
 }
 
 }  // namespace
@@ -239,6 +291,7 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
   const auto wall0 = std::chrono::steady_clock::now();
   MachineState state(params_);
   const std::uint32_t n = params_.nodes;
+  Transport* const transport = params_.transport;
   // Runs teardown for every built node on every way out of this function.
   struct Teardown {
     MachineState& state;
@@ -246,6 +299,7 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
     ~Teardown() {
       if (!teardown) return;
       for (auto& node : state.nodes) {
+        if (!node) continue;
         try {
           teardown(*node);
         } catch (...) {
@@ -254,13 +308,31 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
     }
   } teardown_guard{state, teardown};
   build_participants(state, params_, setup);
+  // Receiving from the other processes, until finish() (or stop() on a failure).
+  struct Receiving {
+    Transport* transport;
+    bool finished = false;
+    ~Receiving() {
+      if (transport && !finished) transport->stop();
+    }
+  } receiving{transport};
+  if (transport)
+    transport->start([&state](NodeId dest, const MessageHeader& h, std::span<const std::byte> payload) {
+      deliver_to(state, dest, h, payload);
+    });
 
   std::mutex done_mutex;
   std::condition_variable done_cv;
-  std::uint32_t running = n + 1;
-  std::vector<double> final_clock(n + 1, 0.0);
+  std::vector<NodeId> local;
+  for (NodeId i = 0; i < n; ++i)
+    if (state.nodes[i]) local.push_back(i);
+  if (state.host) local.push_back(kHost);
+  const std::uint32_t participants = std::uint32_t(local.size());
+  std::uint32_t running = participants;
+  std::vector<double> final_clock(n + 1, 0.0), wall(n + 1, 0.0);
   auto participant = [&](NodeId id, const Main& main, std::size_t slot) {
     NodeContext& ctx = state.context(id);
+    const auto start = std::chrono::steady_clock::now();
     ctx.reset_cpu_mark();
     try {
       main(ctx);
@@ -270,10 +342,13 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
       state.fail(id, std::current_exception());
     }
     final_clock[slot] = ctx.now();
+    wall[slot] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     ctx.note_wait(WaitReason::kDone);
     if (id != kHost) {
       state.scheduler->retire(id);
       state.finished[id].store(true, std::memory_order_release);
+    } else {
+      state.host_finished.store(true, std::memory_order_release);
     }
     {
       std::lock_guard<std::mutex> lock(done_mutex);
@@ -283,23 +358,28 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
   };
 
   std::vector<std::thread> threads;
-  threads.reserve(n + 1);
+  threads.reserve(participants);
   try {
-    for (NodeId i = 0; i < n; ++i) threads.emplace_back(participant, i, std::cref(node_main), std::size_t(i));
-    threads.emplace_back(participant, kHost, std::cref(host_main), std::size_t(n));
+    for (NodeId id : local)
+      threads.emplace_back(participant, id, std::cref(id == kHost ? host_main : node_main),
+                           std::size_t(id == kHost ? n : id));
   } catch (...) {
     state.fail(kHost, std::current_exception());  // e.g. no more threads: stop those started
   }
   {
     std::unique_lock<std::mutex> lock(done_mutex);
     const std::uint32_t started = std::uint32_t(threads.size());
-    auto all_done = [&] { return running <= (n + 1) - started; };
+    auto all_done = [&] { return running <= participants - started; };
     watch_run(state, params_, lock, done_cv, all_done);
   }
   for (std::thread& t : threads) t.join();
   if (std::exception_ptr e = state.error()) throw to_node_error(state.error_node(), e);
+  if (transport) {
+    transport->finish();
+    receiving.finished = true;
+  }
 
-  RunReport report = make_run_report(state, params_, final_clock);
+  RunReport report = make_run_report(state, params_, final_clock, wall);
   report.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   return report;
 }
@@ -352,6 +432,7 @@ nlohmann::json RunReport::to_json(bool per_node) const {
   j["work_grants"] = work_grants;
   j["parallel_time_s"] = parallel_time_s;
   j["wall_s"] = wall_s;
+  if (!transport.empty()) j["transport"] = transport;
   j["scheduler"] = {{"compute_grants", compute_grants},
                     {"handoffs", handoffs},
                     {"service_grants", service_grants},
@@ -370,6 +451,7 @@ nlohmann::json RunReport::to_json(bool per_node) const {
       e["clock_s"] = r.clock_s;
       e["work_done_s"] = r.work_done_s;
       e["memory_peak_bytes"] = r.memory_peak;
+      e["wall_s"] = r.wall_s;
       arr.push_back(std::move(e));
     }
     j["per_node"] = std::move(arr);

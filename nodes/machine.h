@@ -39,6 +39,7 @@
 #include "nodes/links.h"
 #include "nodes/node.h"
 #include "nodes/scheduler.h"
+#include "nodes/transport.h"
 
 namespace raynode::nodes {
 
@@ -78,6 +79,13 @@ struct MachineParams {
   ComputeClock clock = ComputeClock::kCpu;
   /// The unit costs the modes' work meters use under ComputeClock::kModel.
   core::CostModel cost_model = core::default_cost_model();
+  /// Null: every participant runs in this process (the emulator). Else this
+  /// process runs only those `transport` places here, one node per process
+  /// (nodes must equal transport->processes()), and the rest are reached
+  /// through it (transport.h). The virtual-time scheduler and link
+  /// contention are then off: each process has its own cores and the links
+  /// are real. Not owned; must outlive the Machine's runs.
+  Transport* transport = nullptr;
 };
 
 inline constexpr std::uint32_t kMaxNodes = 4096;
@@ -99,6 +107,7 @@ struct NodeReport {
   double work_done_s = -1;       ///< virtual time its work ended (mark_work_done), -1 if never marked
   std::size_t memory_peak = 0;   ///< arena high-water mark, bytes
   std::size_t memory_budget = 0; ///< arena budget, bytes
+  double wall_s = 0;             ///< real seconds its main function ran (under MPI: the rank's wall clock)
 };
 
 /// What a run measured.
@@ -108,6 +117,7 @@ struct RunReport {
   double parallel_time_s = 0;  ///< T_p: the latest end of work (or final clock) over the nodes, virtual seconds
   double wall_s = 0;           ///< real seconds the run took
   std::string network;         ///< preset name
+  std::string transport;       ///< empty: the emulator; else the transport's name ("mpi")
   bool contention = false;     ///< links contend (NetworkModel::contention)
   std::string topology;
   std::string clock;           ///< "cpu" or "model" (MachineParams::clock)
@@ -136,14 +146,17 @@ class MachineState {
   const MachineParams params;
   const Topology topology;
   std::vector<std::unique_ptr<NodeContext>> nodes;
-  std::unique_ptr<NodeContext> host;
+  std::unique_ptr<NodeContext> host;  ///< null where a transport runs the host in another process
   std::atomic<bool> stop{false};
+  std::atomic<bool> host_finished{false};  ///< the host's main returned
   std::unique_ptr<std::atomic<bool>[]> finished;  ///< per node: its main returned
   std::unique_ptr<Scheduler> scheduler;
   std::unique_ptr<LinkNetwork> links;  ///< the links in virtual time, under NetworkModel::contention
   std::atomic<std::uint64_t> progress{0};  ///< messages sent so far (the stall watchdog's measure)
 
   NodeContext& context(NodeId id) { return id == kHost ? *host : *nodes[id]; }
+  /// Does this process run participant `id` (always, without a transport)?
+  bool is_local(NodeId id) const { return id == kHost ? host != nullptr : nodes[id] != nullptr; }
   /// Records the first failure and stops everyone.
   void fail(NodeId node, std::exception_ptr error);
   /// Sets `stop` and wakes every mailbox.
@@ -163,7 +176,9 @@ class Machine {
 
   /// Validates params: throws std::invalid_argument for 0 or too many nodes,
   /// a zero memory budget or payload limit, or nodes x node memory beyond
-  /// the host's physical memory (check_nodes_fit_host). Allocates nothing.
+  /// the host's physical memory (check_nodes_fit_host; with a transport, one
+  /// node's memory), or a node count other than the transport's processes.
+  /// Allocates nothing.
   explicit Machine(const MachineParams& params);
 
   const MachineParams& params() const { return params_; }
@@ -172,7 +187,20 @@ class Machine {
   /// given, runs for every node on the caller's thread after all threads
   /// ended (also when the run failed), before the arenas go: the place to
   /// free what setup put in them. Throws NodeError.
+  /// With a transport, the setup, mains and teardown run only for this
+  /// process's participants; the report's per-node entries are gathered to
+  /// process 0 (the host's), whose report is complete. A failure stops this
+  /// process's run and is thrown here; the caller must end the job (the
+  /// other processes cannot be told).
   RunReport run(const Main& node_main, const Main& host_main, const Main& setup = {}, const Main& teardown = {});
+
+  /// With a transport, collects each node's entry of `per_node` (one per
+  /// node, filled by that node's process, e.g. in teardown) into process
+  /// 0's vector; collective. Without one, there is nothing to collect.
+  template <class T>
+  void gather(std::vector<T>& per_node) const {
+    if (params_.transport) gather_per_node(*params_.transport, per_node);
+  }
 
  private:
   MachineParams params_;

@@ -252,6 +252,19 @@ bool NodeContext::push_to(NodeId dest, MessageHeader& header, std::span<const st
     throw std::logic_error(fmt::format("{} sent a {} message to node {}, but the machine has {} nodes",
                                        node_name(id_), message_type_name(header.type), dest,
                                        machine_->params.nodes));
+  if (!machine_->is_local(dest)) {
+    // Another process's participant (transport.h): the transport never
+    // refuses, and the send is the engine's work, not the node's.
+    header.payload_bytes = 0;
+    for (const auto& p : parts) header.payload_bytes += std::uint32_t(p.size());
+    if (header.payload_bytes > machine_->params.max_payload)  // as the receiver's mailbox would refuse it
+      throw std::length_error(fmt::format("{} message of {} B exceeds the mailbox slot of {} B",
+                                          message_type_name(header.type), header.payload_bytes,
+                                          machine_->params.max_payload));
+    machine_->params.transport->send(dest, header, parts, machine_->params.nodes);
+    costly = true;
+    return true;
+  }
   if (dest != kHost && machine_->finished[dest].load(std::memory_order_acquire))
     throw std::logic_error(fmt::format("{} sent a {} message to node {}, which has finished", node_name(id_),
                                        message_type_name(header.type), dest));

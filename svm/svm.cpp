@@ -273,7 +273,8 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
   if (m.network.fault_s >= 0) cost_model.unit_s[std::size_t(core::CostFeature::kPageFault)] = m.network.fault_s;
   auto setup = [&](NodeContext& ctx) {
     states[ctx.id()] = make_node_state(ctx, in, rp, submaps[ctx.id()], cost_model, cache[ctx.id()], m.max_payload);
-    if (ctx.id() + 1 == m.nodes) host_pages.protect();
+    // The last node built here: one per process under a transport.
+    if (ctx.id() + 1 == m.nodes || m.transport) host_pages.protect();
   };
 
   auto node_main = [&](NodeContext& ctx) {
@@ -307,6 +308,9 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
     throw;
   }
   host_pages.unprotect();
+  machine.gather(out.tracing);  // another process's nodes' counters (a transport), to the host's
+  machine.gather(out.work);
+  machine.gather(out.pager);
   for (const core::RenderStats& s : out.tracing) out.render.stats += s;
   return out;
 }

@@ -1,0 +1,240 @@
+#include "mpi/mpi_transport.h"
+
+#include <fmt/core.h>
+#include <mpi.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstring>
+#include <mutex>
+#include <stdexcept>
+#include <thread>
+#include <vector>
+
+namespace raynode::mpi {
+
+namespace {
+
+bool g_started = false;
+
+/// Every raynode message travels as one MPI message of this tag: the
+/// destination participant, the header, then the payload.
+constexpr int kMessageTag = 7;
+constexpr int kPingTag = 8;
+
+void check(int rc, const char* what) {
+  if (rc == MPI_SUCCESS) return;
+  char text[MPI_MAX_ERROR_STRING];
+  int len = 0;
+  MPI_Error_string(rc, text, &len);
+  throw std::runtime_error(fmt::format("MPI: {} failed: {}", what, std::string(text, std::size_t(len))));
+}
+
+}  // namespace
+
+void start_session() {
+  if (g_started) return;
+  int provided = 0;
+  check(MPI_Init_thread(nullptr, nullptr, MPI_THREAD_MULTIPLE, &provided), "MPI_Init_thread");
+  g_started = true;
+  if (provided < MPI_THREAD_MULTIPLE)
+    throw std::runtime_error(fmt::format("MPI: this MPI library gives thread level {}, and the MPI transport needs "
+                                         "MPI_THREAD_MULTIPLE ({}): node, host and receiving threads all call MPI",
+                                         provided, int(MPI_THREAD_MULTIPLE)));
+}
+
+bool session_started() { return g_started; }
+
+int world_rank() {
+  int r = 0;
+  if (g_started) MPI_Comm_rank(MPI_COMM_WORLD, &r);
+  return r;
+}
+
+int world_size() {
+  int n = 1;
+  if (g_started) MPI_Comm_size(MPI_COMM_WORLD, &n);
+  return n;
+}
+
+void end_session(int exit_code) {
+  if (!g_started) return;
+  g_started = false;
+  if (exit_code != 0 && world_size() > 1) MPI_Abort(MPI_COMM_WORLD, exit_code);
+  MPI_Finalize();
+}
+
+double ping_pong_s(std::size_t bytes, int repeats) {
+  const int rank = world_rank();
+  std::vector<std::byte> buf(std::max<std::size_t>(bytes, 1));
+  const int count = int(bytes);
+  MPI_Barrier(MPI_COMM_WORLD);
+  const double t0 = MPI_Wtime();
+  if (rank <= 1 && world_size() > 1) {
+    const int peer = 1 - rank;
+    for (int i = 0; i < repeats; ++i) {
+      if (rank == 0) {
+        MPI_Send(buf.data(), count, MPI_BYTE, peer, kPingTag, MPI_COMM_WORLD);
+        MPI_Recv(buf.data(), count, MPI_BYTE, peer, kPingTag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+      } else {
+        MPI_Recv(buf.data(), count, MPI_BYTE, peer, kPingTag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        MPI_Send(buf.data(), count, MPI_BYTE, peer, kPingTag, MPI_COMM_WORLD);
+      }
+    }
+  }
+  const double t = MPI_Wtime() - t0;
+  MPI_Barrier(MPI_COMM_WORLD);
+  return rank == 0 && repeats > 0 ? t / (2.0 * repeats) : 0.0;
+}
+
+struct MpiTransport::State {
+  MPI_Comm comm = MPI_COMM_NULL;
+  int rank = 0, size = 1;
+  Deliver deliver;
+  std::thread receiver;
+  std::atomic<bool> receiving{false}, stopping{false};
+  std::atomic<std::uint64_t> received{0};
+  /// Messages this process sent to each rank during the run.
+  std::vector<std::uint64_t> sent;
+  /// Sends in flight: their requests and buffers (index-aligned).
+  std::mutex send_mutex;
+  std::vector<MPI_Request> requests;
+  std::vector<std::vector<std::byte>> buffers;
+
+  /// Drops the completed sends (send_mutex held).
+  void reap() {
+    int done = 0;
+    std::vector<int> indices(requests.size());
+    check(MPI_Testsome(int(requests.size()), requests.data(), &done, indices.data(), MPI_STATUSES_IGNORE),
+          "MPI_Testsome");
+    if (done == MPI_UNDEFINED || done == 0) return;
+    std::size_t w = 0;
+    for (std::size_t i = 0; i < requests.size(); ++i) {
+      if (requests[i] == MPI_REQUEST_NULL) continue;
+      if (w != i) {  // a vector moved onto itself would free the buffer MPI still sends from
+        requests[w] = requests[i];
+        buffers[w] = std::move(buffers[i]);
+      }
+      ++w;
+    }
+    requests.resize(w);
+    buffers.resize(w);
+  }
+
+  void receive_loop() {
+    std::vector<std::byte> buf;
+    int idle = 0;
+    while (!stopping.load(std::memory_order_acquire)) {
+      int flag = 0;
+      MPI_Message msg;
+      MPI_Status status;
+      MPI_Improbe(MPI_ANY_SOURCE, kMessageTag, comm, &flag, &msg, &status);
+      if (!flag) {
+        // Poll at once after mail, then back off to 200 us: a waiting node
+        // (a page, a work grant) is answered within that, and an idle rank
+        // leaves its cores to computing ranks.
+        if (++idle < 64) std::this_thread::yield();
+        else std::this_thread::sleep_for(std::chrono::microseconds(std::min(200, 10 * (idle - 63))));
+        continue;
+      }
+      idle = 0;
+      int count = 0;
+      MPI_Get_count(&status, MPI_BYTE, &count);
+      buf.resize(std::size_t(count));
+      MPI_Mrecv(buf.data(), count, MPI_BYTE, &msg, MPI_STATUS_IGNORE);
+      nodes::NodeId dest = 0;
+      nodes::MessageHeader header;
+      const std::size_t head = sizeof(dest) + sizeof(header);
+      if (buf.size() >= head) {
+        std::memcpy(&dest, buf.data(), sizeof(dest));
+        std::memcpy(&header, buf.data() + sizeof(dest), sizeof(header));
+        deliver(dest, header, std::span<const std::byte>(buf.data() + head, buf.size() - head));
+      }
+      received.fetch_add(1, std::memory_order_release);
+    }
+  }
+};
+
+MpiTransport::MpiTransport() : s_(std::make_unique<State>()) {
+  if (!g_started) throw std::logic_error("MpiTransport needs mpi::start_session() first");
+  check(MPI_Comm_dup(MPI_COMM_WORLD, &s_->comm), "MPI_Comm_dup");
+  MPI_Comm_rank(s_->comm, &s_->rank);
+  MPI_Comm_size(s_->comm, &s_->size);
+  s_->sent.assign(std::size_t(s_->size), 0);
+}
+
+MpiTransport::~MpiTransport() {
+  stop();
+  if (g_started && s_->comm != MPI_COMM_NULL) MPI_Comm_free(&s_->comm);
+}
+
+std::uint32_t MpiTransport::processes() const { return std::uint32_t(s_->size); }
+std::uint32_t MpiTransport::process() const { return std::uint32_t(s_->rank); }
+
+std::uint32_t MpiTransport::process_of(nodes::NodeId id, std::uint32_t nodes) const {
+  return id == nodes::kHost ? 0 : id;
+}
+
+void MpiTransport::start(Deliver deliver) {
+  stop();
+  s_->deliver = std::move(deliver);
+  s_->received.store(0);
+  std::fill(s_->sent.begin(), s_->sent.end(), 0);
+  s_->stopping.store(false);
+  s_->receiver = std::thread([st = s_.get()] { st->receive_loop(); });
+  s_->receiving.store(true);
+}
+
+void MpiTransport::send(nodes::NodeId dest, const nodes::MessageHeader& header,
+                        std::span<const std::span<const std::byte>> parts, std::uint32_t nodes) {
+  const std::uint32_t to = process_of(dest, nodes);
+  std::size_t bytes = sizeof(dest) + sizeof(header);
+  for (const auto& p : parts) bytes += p.size();
+  std::vector<std::byte> buf(bytes);
+  std::byte* at = buf.data();
+  std::memcpy(at, &dest, sizeof(dest));
+  at += sizeof(dest);
+  std::memcpy(at, &header, sizeof(header));
+  at += sizeof(header);
+  for (const auto& p : parts) {
+    if (!p.empty()) std::memcpy(at, p.data(), p.size());
+    at += p.size();
+  }
+  std::lock_guard<std::mutex> lock(s_->send_mutex);
+  MPI_Request req;
+  check(MPI_Isend(buf.data(), int(bytes), MPI_BYTE, int(to), kMessageTag, s_->comm, &req), "MPI_Isend");
+  s_->requests.push_back(req);
+  s_->buffers.push_back(std::move(buf));
+  ++s_->sent[to];
+  if (s_->requests.size() >= 32) s_->reap();
+}
+
+void MpiTransport::finish() {
+  {
+    std::lock_guard<std::mutex> lock(s_->send_mutex);
+    check(MPI_Waitall(int(s_->requests.size()), s_->requests.data(), MPI_STATUSES_IGNORE), "MPI_Waitall");
+    s_->requests.clear();
+    s_->buffers.clear();
+  }
+  std::vector<std::uint64_t> expected(s_->sent.size());
+  check(MPI_Alltoall(s_->sent.data(), 1, MPI_UINT64_T, expected.data(), 1, MPI_UINT64_T, s_->comm), "MPI_Alltoall");
+  std::uint64_t total = 0;
+  for (std::uint64_t e : expected) total += e;
+  while (s_->received.load(std::memory_order_acquire) < total) std::this_thread::sleep_for(std::chrono::microseconds(50));
+  stop();
+}
+
+void MpiTransport::stop() noexcept {
+  if (!s_->receiving.exchange(false)) return;
+  s_->stopping.store(true, std::memory_order_release);
+  if (s_->receiver.joinable()) s_->receiver.join();
+}
+
+void MpiTransport::gather(std::span<const std::byte> mine, std::span<std::byte> all) {
+  check(MPI_Gather(mine.data(), int(mine.size()), MPI_BYTE, s_->rank == 0 ? all.data() : nullptr,
+                   int(mine.size()), MPI_BYTE, 0, s_->comm),
+        "MPI_Gather");
+}
+
+}  // namespace raynode::mpi
