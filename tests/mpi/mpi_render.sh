@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# The node modes on MPI ranks (label `mpi`): `mpirun -np N raynode render
+# SCENE --mode M --transport mpi` for N = 1..4 must give the sequential image:
+# byte for byte for replicated and svm, within one 8-bit step per channel for
+# dataflow (it adds contributions in arrival order). Only rank 0 writes.
+#
+#   mpi_render.sh RAYNODE MPIEXEC WORKDIR SCENE [render options...]
+set -uo pipefail
+raynode=$(realpath "$1") mpiexec=$2 workdir=$3 scene=$4
+shift 4
+rm -rf "$workdir" && mkdir -p "$workdir" && cd "$workdir" || exit 2
+# Root in CI containers: Open MPI refuses to start as root without these.
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
+args=("$scene" --width 40 --height 32 --quiet --timeout 100 "$@")
+fail=0
+"$raynode" render "${args[@]}" --mode sequential -o ref.ppm || { echo "FAIL: the sequential render"; exit 1; }
+for np in 1 2 3 4; do
+  for mode in replicated svm dataflow; do
+    out="$mode$np.ppm"
+    if ! timeout --kill-after=5 120 "$mpiexec" -np "$np" "$raynode" render "${args[@]}" --mode "$mode" --transport mpi \
+        -o "$out" --stats "$mode$np.json" >"$mode$np.log" 2>&1; then
+      echo "FAIL: mpirun -np $np render --mode $mode exited non-zero:"
+      cat "$mode$np.log"
+      fail=1
+      continue
+    fi
+    [ -s "$out" ] || { echo "FAIL: -np $np --mode $mode wrote no image"; fail=1; continue; }
+    grep -q '"transport": "mpi"' "$mode$np.json" || { echo "FAIL: $mode$np.json does not name the mpi transport"; fail=1; }
+    count=$(grep -c '"wall_s"' "$mode$np.json")
+    [ "$count" -ge "$((np + 1))" ] || { echo "FAIL: $mode$np.json has $count wall_s entries for $np ranks"; fail=1; }
+    if [ "$mode" = dataflow ]; then
+      # cmp -l: offset and both bytes (octal) of every differing byte.
+      worst=$(cmp -l ref.ppm "$out" | awk 'function oct(s,  n, i) { n = 0; for (i = 1; i <= length(s); i++) n = n * 8 + substr(s, i, 1); return n }
+        { a = oct($2); b = oct($3); d = a > b ? a - b : b - a; if (d > m) m = d } END { print m + 0 }')
+      [ "$(stat -c %s ref.ppm)" = "$(stat -c %s "$out")" ] && [ "$worst" -le 1 ] ||
+        { echo "FAIL: -np $np dataflow differs from the sequential image (worst step $worst)"; fail=1; }
+    elif ! cmp -s ref.ppm "$out"; then
+      echo "FAIL: -np $np --mode $mode differs from the sequential image"
+      fail=1
+    fi
+  done
+done
+extra=$(ls | grep -v -E '^(ref\.ppm|(replicated|svm|dataflow)[1-4]\.(ppm|json|log))$')
+[ -z "$extra" ] || { echo "FAIL: files no rank should write: $extra"; fail=1; }
+[ "$fail" = 0 ] && echo "PASS: 12 MPI renders equal the sequential image"
+exit "$fail"
