@@ -1,7 +1,9 @@
+
 #include "mpi/mpi_transport.h"
 
 #include <fmt/core.h>
 #include <mpi.h>
+#include <sys/resource.h>
 
 #include <algorithm>
 #include <atomic>
@@ -95,6 +97,7 @@ struct MpiTransport::State {
   std::thread receiver;
   std::atomic<bool> receiving{false}, stopping{false};
   std::atomic<std::uint64_t> received{0};
+  std::atomic<int> waiting{0};  ///< nodes of this rank blocked for mail (note_waiting)
   /// Messages this process sent to each rank during the run.
   std::vector<std::uint64_t> sent;
   /// Sends in flight: their requests and buffers (index-aligned).
@@ -122,36 +125,54 @@ struct MpiTransport::State {
     buffers.resize(w);
   }
 
+  /// Takes one waiting message, if any, and delivers it on this thread.
+  bool receive_one(std::vector<std::byte>& buf) {
+    int flag = 0;
+    MPI_Message msg;
+    MPI_Status status;
+    MPI_Improbe(MPI_ANY_SOURCE, kMessageTag, comm, &flag, &msg, &status);
+    if (!flag) return false;
+    int count = 0;
+    MPI_Get_count(&status, MPI_BYTE, &count);
+    buf.resize(std::size_t(count));
+    MPI_Mrecv(buf.data(), count, MPI_BYTE, &msg, MPI_STATUS_IGNORE);
+    nodes::NodeId dest = 0;
+    nodes::MessageHeader header;
+    const std::size_t head = sizeof(dest) + sizeof(header);
+    if (buf.size() >= head) {
+      std::memcpy(&dest, buf.data(), sizeof(dest));
+      std::memcpy(&header, buf.data() + sizeof(dest), sizeof(header));
+      deliver(dest, header, std::span<const std::byte>(buf.data() + head, buf.size() - head));
+    }
+    received.fetch_add(1, std::memory_order_release);
+    return true;
+  }
+
   void receive_loop() {
+    // The lowest priority: when this rank's node computes, it polls for its
+    // own mail (NodeContext::has_mail), and this thread must not take its
+    // core; when the node waits, the core is free and this thread runs.
+    // (Measured on 2 cores, svm Teapot 512x512 on 2 ranks: 0.202 s at nice
+    // 0, 0.172 s at 19.)
+    ::setpriority(PRIO_PROCESS, 0, 19);
     std::vector<std::byte> buf;
     int idle = 0;
     while (!stopping.load(std::memory_order_acquire)) {
-      int flag = 0;
-      MPI_Message msg;
-      MPI_Status status;
-      MPI_Improbe(MPI_ANY_SOURCE, kMessageTag, comm, &flag, &msg, &status);
-      if (!flag) {
-        // Poll at once after mail, then back off to 200 us: a waiting node
-        // (a page, a work grant) is answered within that, and an idle rank
-        // leaves its cores to computing ranks.
-        if (++idle < 64) std::this_thread::yield();
-        else std::this_thread::sleep_for(std::chrono::microseconds(std::min(200, 10 * (idle - 63))));
+      if (!receive_one(buf)) {
+        // A node waits (a page, a work grant, rays): its core is free, so
+        // look again at once. Else back off to 200 us: a thread that wakes
+        // on a computing node's core costs it its caches (and its clock
+        // the refills), so it must wake rarely.
+        if (waiting.load(std::memory_order_relaxed) > 0) {
+          idle = 0;
+          std::this_thread::yield();
+        } else {
+          ++idle;
+          std::this_thread::sleep_for(std::chrono::microseconds(std::min(1000, 20 * idle)));
+        }
         continue;
       }
       idle = 0;
-      int count = 0;
-      MPI_Get_count(&status, MPI_BYTE, &count);
-      buf.resize(std::size_t(count));
-      MPI_Mrecv(buf.data(), count, MPI_BYTE, &msg, MPI_STATUS_IGNORE);
-      nodes::NodeId dest = 0;
-      nodes::MessageHeader header;
-      const std::size_t head = sizeof(dest) + sizeof(header);
-      if (buf.size() >= head) {
-        std::memcpy(&dest, buf.data(), sizeof(dest));
-        std::memcpy(&header, buf.data() + sizeof(dest), sizeof(header));
-        deliver(dest, header, std::span<const std::byte>(buf.data() + head, buf.size() - head));
-      }
-      received.fetch_add(1, std::memory_order_release);
     }
   }
 };
@@ -184,6 +205,9 @@ void MpiTransport::start(Deliver deliver) {
   s_->stopping.store(false);
   s_->receiver = std::thread([st = s_.get()] { st->receive_loop(); });
   s_->receiving.store(true);
+  // Every rank receives before any starts its participants, and they start
+  // together: each rank's wall time then measures the same run.
+  check(MPI_Barrier(s_->comm), "MPI_Barrier");
 }
 
 void MpiTransport::send(nodes::NodeId dest, const nodes::MessageHeader& header,
@@ -230,6 +254,13 @@ void MpiTransport::stop() noexcept {
   s_->stopping.store(true, std::memory_order_release);
   if (s_->receiver.joinable()) s_->receiver.join();
 }
+
+bool MpiTransport::poll() {
+  thread_local std::vector<std::byte> buf;
+  return s_->receiving.load(std::memory_order_relaxed) && s_->receive_one(buf);
+}
+
+void MpiTransport::note_waiting(int delta) noexcept { s_->waiting.fetch_add(delta, std::memory_order_relaxed); }
 
 void MpiTransport::gather(std::span<const std::byte> mine, std::span<std::byte> all) {
   check(MPI_Gather(mine.data(), int(mine.size()), MPI_BYTE, s_->rank == 0 ? all.data() : nullptr,

@@ -59,6 +59,8 @@ class MpiTransport final : public nodes::Transport {
             std::span<const std::span<const std::byte>> parts, std::uint32_t nodes) override;
   void finish() override;
   void stop() noexcept override;
+  bool poll() override;
+  void note_waiting(int delta) noexcept override;
   void gather(std::span<const std::byte> mine, std::span<std::byte> all) override;
 
  private:

@@ -47,6 +47,7 @@
 #include "nodes/scheduler.h"
 #include "nodes/timeline.h"
 #include "nodes/topology.h"
+#include "nodes/transport.h"
 
 namespace raynode::nodes {
 
@@ -296,7 +297,18 @@ class NodeContext {
   bool poll(Message& out);
   /// Cheap check (no clock sample, no system call): may poll() return a
   /// message? False negatives only for mail published after the call.
-  bool has_mail() const { return !backlog_.empty() || mailbox_->has_message(); }
+  /// Under a transport, every 16th call first takes one message from the
+  /// other processes (Transport::poll): a computing node's checks between
+  /// pixels then fetch its requests without waiting for the transport's
+  /// receiving thread, which stays off the node's core.
+  bool has_mail() {
+    if (transport_ && (++transport_checks_ & 15u) == 0) [[unlikely]] transport_->poll();
+    return !backlog_.empty() || mailbox_->has_message();
+  }
+  /// Owner thread only: puts a message that came through the transport
+  /// among this node's mail, parked in the arena when the mailbox is full
+  /// (the owner cannot wait for room in its own mailbox).
+  void accept(const MessageHeader& header, std::span<const std::byte> payload);
   /// Sets a received message aside (a copy in the arena) so that poll()
   /// and receive() skip it until resume_deferred(): for a handler that
   /// waits for one kind of message (svm's page reply) and must leave the
@@ -326,6 +338,8 @@ class NodeContext {
   void check_stop() const;
 
   MachineState* machine_;
+  Transport* transport_ = nullptr;  ///< MachineParams::transport
+  std::uint32_t transport_checks_ = 0;  ///< has_mail() calls, for its pulls from the transport
   NodeId id_;
   Arena arena_;
   std::unique_ptr<Mailbox> mailbox_;

@@ -48,7 +48,8 @@ class Transport {
   virtual std::uint32_t process_of(NodeId id, std::uint32_t nodes) const = 0;
 
   /// Starts receiving: from now until finish(), `deliver` is called for every
-  /// message sent to a participant of this process.
+  /// message sent to a participant of this process. Collective: returns
+  /// when every process receives, so that their runs start together.
   virtual void start(Deliver deliver) = 0;
   /// Sends a message to a participant of another process. Never refuses
   /// (the receiving process queues it until its mailbox has room); thread
@@ -63,6 +64,16 @@ class Transport {
   /// Stops receiving at once, without waiting for the other processes (a
   /// failed run); no effect when not receiving.
   virtual void stop() noexcept = 0;
+  /// Receives at most one waiting message on the calling thread (a
+  /// participant looking for its mail) and hands it to the Deliver of
+  /// start(); returns whether one came. Thread safe; only between start()
+  /// and finish().
+  virtual bool poll() = 0;
+  /// A node of this process starts (+1) or ends (-1) blocking for mail:
+  /// while one waits, its core is free and the transport should look for
+  /// messages at once; while all compute, it should stay off their cores.
+  /// Thread safe; a hint.
+  virtual void note_waiting(int delta) noexcept = 0;
   /// Collective: process 0 gets every process's `mine` (all of the same
   /// size) in process order in `all` (processes() x mine.size() bytes);
   /// other processes leave `all` untouched.
