@@ -297,12 +297,14 @@ class NodeContext {
   bool poll(Message& out);
   /// Cheap check (no clock sample, no system call): may poll() return a
   /// message? False negatives only for mail published after the call.
-  /// Under a transport, every 16th call first takes one message from the
-  /// other processes (Transport::poll): a computing node's checks between
-  /// pixels then fetch its requests without waiting for the transport's
-  /// receiving thread, which stays off the node's core.
+  /// Under a transport, every 16th call, and every call after one that
+  /// found some, first takes one message from the other processes
+  /// (Transport::poll): a computing node's checks between pixels then fetch
+  /// its requests and rays without waiting for the transport's receiving
+  /// thread, which stays off the node's core.
   bool has_mail() {
-    if (transport_ && (++transport_checks_ & 15u) == 0) [[unlikely]] transport_->poll();
+    if (transport_ && (transport_found_ || (++transport_checks_ & 15u) == 0)) [[unlikely]]
+      transport_found_ = transport_->poll();
     return !backlog_.empty() || mailbox_->has_message();
   }
   /// Owner thread only: puts a message that came through the transport
@@ -340,6 +342,7 @@ class NodeContext {
   MachineState* machine_;
   Transport* transport_ = nullptr;  ///< MachineParams::transport
   std::uint32_t transport_checks_ = 0;  ///< has_mail() calls, for its pulls from the transport
+  bool transport_found_ = false;        ///< has_mail()'s last pull took a message
   NodeId id_;
   Arena arena_;
   std::unique_ptr<Mailbox> mailbox_;
