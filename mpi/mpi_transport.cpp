@@ -125,8 +125,19 @@ struct MpiTransport::State {
     buffers.resize(w);
   }
 
+  /// Held from a message's probe to its delivery: one sender's messages
+  /// then reach the mailboxes in the order MPI matched them, which is the
+  /// order they were sent (as the emulator's mailboxes keep it).
+  std::mutex receive_mutex;
+
   /// Takes one waiting message, if any, and delivers it on this thread.
-  bool receive_one(std::vector<std::byte>& buf) {
+  /// `wait`: block for the receive lock; else give up when another thread
+  /// holds it (a participant's poll: the holder may be waiting for room in
+  /// the participant's own mailbox).
+  bool receive_one(std::vector<std::byte>& buf, bool wait) {
+    std::unique_lock<std::mutex> lock(receive_mutex, std::defer_lock);
+    if (wait) lock.lock();
+    else if (!lock.try_lock()) return false;
     int flag = 0;
     MPI_Message msg;
     MPI_Status status;
@@ -158,7 +169,7 @@ struct MpiTransport::State {
     std::vector<std::byte> buf;
     int idle = 0;
     while (!stopping.load(std::memory_order_acquire)) {
-      if (!receive_one(buf)) {
+      if (!receive_one(buf, true)) {
         // A node waits (a page, a work grant, rays): its core is free, so
         // look again at once. Else back off to 200 us: a thread that wakes
         // on a computing node's core costs it its caches (and its clock
@@ -257,7 +268,7 @@ void MpiTransport::stop() noexcept {
 
 bool MpiTransport::poll() {
   thread_local std::vector<std::byte> buf;
-  return s_->receiving.load(std::memory_order_relaxed) && s_->receive_one(buf);
+  return s_->receiving.load(std::memory_order_relaxed) && s_->receive_one(buf, false);
 }
 
 void MpiTransport::note_waiting(int delta) noexcept { s_->waiting.fetch_add(delta, std::memory_order_relaxed); }

@@ -66,8 +66,10 @@ class Transport {
   virtual void stop() noexcept = 0;
   /// Receives at most one waiting message on the calling thread (a
   /// participant looking for its mail) and hands it to the Deliver of
-  /// start(); returns whether one came. Thread safe; only between start()
-  /// and finish().
+  /// start(); returns whether one came. Never waits for another thread's
+  /// delivery (it may wait for room in this participant's mailbox). One
+  /// sender's messages are delivered in the order sent, whichever thread
+  /// takes them. Thread safe; only between start() and finish().
   virtual bool poll() = 0;
   /// A node of this process starts (+1) or ends (-1) blocking for mail:
   /// while one waits, its core is free and the transport should look for

@@ -1,0 +1,214 @@
+// The machine over a transport (nodes/transport.h), without MPI: a loopback
+// transport joins several "processes" (threads of this test, each running
+// Machine::run for its own node) through in-memory queues. The same node
+// programs must see the same messages as on the in-process machine, and
+// process 0 must get every node's report.
+#include <doctest/doctest.h>
+
+#include <barrier>
+#include <condition_variable>
+#include <cstring>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "nodes/machine.h"
+
+using namespace raynode::nodes;
+
+namespace {
+
+/// What every loopback endpoint shares: a queue per process, and a barrier
+/// for the collectives.
+struct Hub {
+  struct Packet {
+    NodeId dest;
+    MessageHeader header;
+    std::vector<std::byte> payload;
+  };
+  explicit Hub(std::uint32_t processes) : queues(processes), sync(std::ptrdiff_t(processes)), slots(processes) {}
+  std::mutex mutex;
+  std::vector<std::deque<Packet>> queues;
+  std::barrier<> sync;
+  std::vector<std::vector<std::byte>> slots;  ///< gather: each process's bytes
+};
+
+class LoopbackTransport final : public Transport {
+ public:
+  LoopbackTransport(Hub& hub, std::uint32_t process) : hub_(hub), process_(process) {}
+  ~LoopbackTransport() override { stop(); }
+
+  std::string name() const override { return "loopback"; }
+  std::uint32_t processes() const override { return std::uint32_t(hub_.queues.size()); }
+  std::uint32_t process() const override { return process_; }
+  std::uint32_t process_of(NodeId id, std::uint32_t) const override { return id == kHost ? 0 : id; }
+
+  void start(Deliver deliver) override {
+    deliver_ = std::move(deliver);
+    stopping_ = false;
+    receiver_ = std::thread([this] {
+      while (!stopping_.load())
+        if (!receive_one(true)) std::this_thread::sleep_for(std::chrono::microseconds(20));
+    });
+    hub_.sync.arrive_and_wait();
+  }
+  void send(NodeId dest, const MessageHeader& header, std::span<const std::span<const std::byte>> parts,
+            std::uint32_t nodes) override {
+    Hub::Packet p{dest, header, {}};
+    for (const auto& part : parts) p.payload.insert(p.payload.end(), part.begin(), part.end());
+    std::lock_guard<std::mutex> lock(hub_.mutex);
+    hub_.queues[process_of(dest, nodes)].push_back(std::move(p));
+    ++sent_;
+  }
+  bool poll() override { return receive_one(false); }
+  bool receive_one(bool wait) {
+    // Held from taking a packet to delivering it: one sender's packets are
+    // delivered in order. A participant's poll gives up when it is held.
+    std::unique_lock<std::mutex> order(order_, std::defer_lock);
+    if (wait) order.lock();
+    else if (!order.try_lock()) return false;
+    Hub::Packet p;
+    {
+      std::lock_guard<std::mutex> lock(hub_.mutex);
+      auto& q = hub_.queues[process_];
+      if (q.empty()) return false;
+      p = std::move(q.front());
+      q.pop_front();
+    }
+    deliver_(p.dest, p.header, p.payload);
+    return true;
+  }
+  void finish() override {
+    hub_.sync.arrive_and_wait();  // every process's participants have ended: nothing more is sent
+    while (receive_one(true)) {
+    }
+    stop();
+  }
+  void stop() noexcept override {
+    stopping_ = true;
+    if (receiver_.joinable()) receiver_.join();
+  }
+  void note_waiting(int) noexcept override {}
+  void gather(std::span<const std::byte> mine, std::span<std::byte> all) override {
+    hub_.slots[process_].assign(mine.begin(), mine.end());
+    hub_.sync.arrive_and_wait();
+    if (process_ == 0)
+      for (std::size_t i = 0; i < hub_.slots.size(); ++i)
+        std::memcpy(all.data() + i * mine.size(), hub_.slots[i].data(), mine.size());
+    hub_.sync.arrive_and_wait();
+  }
+  std::uint64_t sent() const { return sent_; }
+
+ private:
+  Hub& hub_;
+  std::uint32_t process_;
+  Deliver deliver_;
+  std::mutex order_;
+  std::thread receiver_;
+  std::atomic<bool> stopping_{false};
+  std::uint64_t sent_ = 0;
+};
+
+struct Hello {
+  std::uint32_t from;
+  std::uint32_t round;
+};
+
+/// Every node sends `rounds` messages to every other node, then tells the
+/// host how many it received; the host shuts them down once all reported.
+void all_to_all_node(NodeContext& ctx, std::uint32_t rounds) {
+  const std::uint32_t n = ctx.node_count();
+  for (std::uint32_t r = 0; r < rounds; ++r)
+    for (NodeId to = 0; to < n; ++to)
+      if (to != ctx.id()) ctx.send(to, MessageType::kTest, Hello{ctx.id(), r});
+  std::uint32_t got = 0;
+  std::vector<std::uint32_t> next_round(n, 0);
+  while (got < rounds * (n - 1)) {
+    const Message m = ctx.receive(WaitKind::kIdle);
+    REQUIRE(m.type() == MessageType::kTest);
+    const Hello h = m.as<Hello>();
+    CHECK(h.round == next_round[h.from]);  // one sender's messages arrive in order
+    ++next_round[h.from];
+    ++got;
+  }
+  ctx.send(kHost, MessageType::kNodeDone, Hello{ctx.id(), got});
+  while (ctx.receive(WaitKind::kIdle).type() != MessageType::kShutdown) {
+  }
+}
+
+void gathering_host(NodeContext& host, std::vector<std::uint32_t>& reported) {
+  reported.assign(host.node_count(), 0);
+  for (std::uint32_t i = 0; i < host.node_count(); ++i) {
+    const Hello h = host.receive(WaitKind::kIdle).as<Hello>();
+    reported.at(h.from) = h.round;
+  }
+  for (NodeId i = 0; i < host.node_count(); ++i) host.send(i, MessageType::kShutdown, Hello{});
+}
+
+}  // namespace
+
+TEST_CASE("transport: 4 processes over a loopback transport run all-to-all as the in-process machine does") {
+  constexpr std::uint32_t kNodes = 4, kRounds = 50;
+  MachineParams base;
+  base.nodes = kNodes;
+  base.mailbox_capacity = 4;  // full mailboxes on the receiving side: accept() parks, deliveries wait
+  base.timeout_s = 60;
+
+  // The in-process machine: the reference counts.
+  std::vector<std::uint32_t> local_reported;
+  const RunReport local = Machine(base).run([&](NodeContext& ctx) { all_to_all_node(ctx, kRounds); },
+                                            [&](NodeContext& host) { gathering_host(host, local_reported); });
+
+  Hub hub(kNodes);
+  std::vector<std::unique_ptr<LoopbackTransport>> transports;
+  for (std::uint32_t p = 0; p < kNodes; ++p) transports.push_back(std::make_unique<LoopbackTransport>(hub, p));
+  std::vector<RunReport> reports(kNodes);
+  std::vector<std::uint32_t> reported;
+  std::vector<std::uint32_t> per_node_value(kNodes, 0);
+  std::vector<std::thread> processes;
+  for (std::uint32_t p = 0; p < kNodes; ++p)
+    processes.emplace_back([&, p] {
+      MachineParams mp = base;
+      mp.transport = transports[p].get();
+      Machine machine(mp);
+      std::vector<std::uint32_t> value(kNodes, 0);
+      reports[p] = machine.run([&](NodeContext& ctx) { all_to_all_node(ctx, kRounds); },
+                               [&](NodeContext& host) { gathering_host(host, reported); }, {},
+                               [&](NodeContext& ctx) { value[ctx.id()] = 1000 + ctx.id(); });
+      machine.gather(value);
+      if (p == 0) per_node_value = value;
+    });
+  for (std::thread& t : processes) t.join();
+
+  const std::size_t test = std::size_t(MessageType::kTest);
+  CHECK(reported == local_reported);
+  CHECK(reported == std::vector<std::uint32_t>(kNodes, kRounds * (kNodes - 1)));
+  // Process 0 has every node's report and gathered value; the in-process run's counts agree.
+  const RunReport& r = reports[0];
+  CHECK(r.transport == "loopback");
+  REQUIRE(r.nodes.size() == kNodes);
+  for (std::uint32_t i = 0; i < kNodes; ++i) {
+    CHECK(r.nodes[i].id == i);
+    CHECK(r.nodes[i].counters.sent[test].messages == local.nodes[i].counters.sent[test].messages);
+    CHECK(r.nodes[i].counters.received[test].messages == kRounds * (kNodes - 1));
+    CHECK(r.nodes[i].wall_s > 0);
+    CHECK(per_node_value[i] == 1000 + i);
+  }
+  CHECK(r.host.counters.received[std::size_t(MessageType::kNodeDone)].messages == kNodes);
+  // Everything between processes went through the transports: node p sent
+  // (kNodes - 1) x kRounds to the others, plus its report to the host unless it is on process 0.
+  for (std::uint32_t p = 0; p < kNodes; ++p)
+    CHECK(transports[p]->sent() == kRounds * (kNodes - 1) + (p == 0 ? 0 : 1) + (p == 0 ? kNodes - 1 : 0));
+}
+
+TEST_CASE("transport: a machine over a transport needs one node per process") {
+  Hub hub(2);
+  LoopbackTransport t(hub, 0);
+  MachineParams p;
+  p.nodes = 3;
+  p.transport = &t;
+  CHECK_THROWS_WITH_AS(Machine{p}, "the loopback transport runs one node per process: 2 processes, 3 nodes",
+                       std::invalid_argument);
+}
