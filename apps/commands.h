@@ -122,6 +122,8 @@ void register_bench_nodes_commands(CLI::App& app);
 void register_render_command(CLI::App& app);
 /// sweep nodes|cache|page-size (apps/cmd_sweep.cpp).
 void register_sweep_commands(CLI::App& app);
+/// bench mpi (after register_bench_command; apps/cmd_bench_mpi.cpp).
+void register_bench_mpi_command(CLI::App& app);
 /// bench quality (after register_bench_command; apps/cmd_bench_quality.cpp).
 void register_bench_quality_command(CLI::App& app);
 /// bench cost-model (after register_bench_command; apps/cmd_bench_cost_model.cpp).

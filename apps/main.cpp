@@ -110,6 +110,7 @@ static int run_main(int argc, char** argv) {
   apps::register_validate_command(app);
   apps::register_bench_command(app);
   apps::register_bench_nodes_commands(app);
+  apps::register_bench_mpi_command(app);
   apps::register_render_command(app);
   apps::register_sweep_commands(app);
   apps::register_bench_quality_command(app);

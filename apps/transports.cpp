@@ -44,6 +44,15 @@ int transport_ranks() {
 #endif
 }
 
+double mpi_ping_pong_s(std::size_t bytes, int repeats) {
+#ifdef RAYNODE_HAVE_MPI
+  return mpi::ping_pong_s(bytes, repeats);
+#else
+  (void)bytes, (void)repeats;
+  throw UsageError("this raynode was built without MPI");
+#endif
+}
+
 void end_transport_session(int exit_code) {
 #ifdef RAYNODE_HAVE_MPI
   mpi::end_session(exit_code);

@@ -19,6 +19,10 @@ std::unique_ptr<nodes::Transport> make_transport(const std::string& name);
 /// This process's MPI rank and the ranks (0 and 1 without MPI).
 int transport_rank();
 int transport_ranks();
+/// Raw MPI ping-pong between ranks 0 and 1 (mpi::ping_pong_s): half the
+/// mean round trip of `repeats` messages of `bytes` bytes, wall seconds, on
+/// rank 0 (0 elsewhere). Throws UsageError in a build without MPI.
+double mpi_ping_pong_s(std::size_t bytes, int repeats);
 /// At the end of main: ends MPI if it was started (a failure on one rank
 /// aborts the others, which would wait for it for ever).
 void end_transport_session(int exit_code);

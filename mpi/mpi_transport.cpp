@@ -62,8 +62,8 @@ int world_size() {
 
 void end_session(int exit_code) {
   if (!g_started) return;
-  g_started = false;
   if (exit_code != 0 && world_size() > 1) MPI_Abort(MPI_COMM_WORLD, exit_code);
+  g_started = false;
   MPI_Finalize();
 }
 
