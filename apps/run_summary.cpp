@@ -43,9 +43,12 @@ std::string machine_line(const nlohmann::json& m) {
   if (const auto* topology = text(m, "topology")) add(how, *topology);
   if (const auto* net = text(m, "network")) add(how, *net == "none" ? "no network costs" : *net + " network");
   if (const auto* clock = text(m, "clock")) add(how, *clock + " clock");
+  if (const auto* transport = text(m, "transport")) add(how, "on " + *transport + " ranks");
   if (!how.empty()) line += " (" + how + ")";
   std::string parts;
   if (const auto* tp = number(m, "parallel_time_s")) add(parts, "T_p " + seconds(tp->get<double>()));
+  if (m.contains("transport"))
+    if (const auto* wall = number(m, "wall_s")) add(parts, "wall " + seconds(wall->get<double>()));
   if (const auto* e = number(m, "efficiency_estimate"))
     add(parts, fmt::format("efficiency {:.1f}% (summed busy time / (N x T_p))", 100 * e->get<double>()));
   if (m.contains("total")) {
