@@ -425,7 +425,9 @@ nlohmann::json counters_json(const NodeCounters& c) {
   j["time"] = {{"busy_s", c.busy_s},
                {"idle_s", c.idle_s},
                {"communication_s", c.communication_s},
-               {"emulator_overhead_cpu_s", c.overhead_cpu_s}};
+               {"emulator_overhead_cpu_s", c.overhead_cpu_s},
+               {"idle_wall_s", c.idle_wall_s},
+               {"communication_wall_s", c.communication_wall_s}};
   j["full_mailbox_retries"] = c.full_mailbox_retries;
   j["services"] = c.services;
   j["service_wait_s"] = c.service_wait_s;

@@ -3,6 +3,7 @@
 #include <fmt/core.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 #include <thread>
 
@@ -39,6 +40,8 @@ NodeCounters& NodeCounters::operator+=(const NodeCounters& o) {
   service_wait_s += o.service_wait_s;
   link_waits += o.link_waits;
   link_wait_s += o.link_wait_s;
+  idle_wall_s += o.idle_wall_s;
+  communication_wall_s += o.communication_wall_s;
   backlog_peak = std::max(backlog_peak, o.backlog_peak);
   return *this;
 }
@@ -195,6 +198,16 @@ void NodeContext::wait_for_mail(double timeout_s) {
   const bool generic = wait_reason_.load(std::memory_order_relaxed) == std::uint8_t(WaitReason::kNone);
   const bool for_permit = want_permit_ && id_ != kHost && !machine_->scheduler->granted_flag(id_).load(std::memory_order_relaxed);
   if (generic) note_wait(for_permit ? WaitReason::kPermit : WaitReason::kMail);
+  // Real time blocked: waiting for a page or a work grant is communication, anything else idle.
+  const auto wall0 = std::chrono::steady_clock::now();
+  const auto reason = WaitReason(wait_reason_.load(std::memory_order_relaxed));
+  struct BookWall {
+    double& to;
+    std::chrono::steady_clock::time_point from;
+    ~BookWall() { to += std::chrono::duration<double>(std::chrono::steady_clock::now() - from).count(); }
+  } book{reason == WaitReason::kPage || reason == WaitReason::kWorkGrant ? counters_.communication_wall_s
+                                                                         : counters_.idle_wall_s,
+         wall0};
   if (id_ == kHost) {
     // The host waits quietly: senders do not wake it per message (a pixel
     // block every few microseconds would take a core from a node each

@@ -124,6 +124,10 @@ struct NodeCounters {
   std::uint64_t link_waits = 0;  ///< messages sent that waited for a link held by another (link contention)
   double link_wait_s = 0;        ///< virtual seconds they waited
   std::uint64_t backlog_peak = 0;          ///< most messages parked while a send waited
+  /// Real (wall) seconds blocked for mail: for a page or a work grant
+  /// (communication), for anything else (idle). Under a transport, with
+  /// NodeReport::wall_s, what a rank really did: busy = wall - both.
+  double idle_wall_s = 0, communication_wall_s = 0;
 
   MessageCounts total_sent() const;
   MessageCounts total_received() const;
