@@ -408,3 +408,26 @@ TEST_CASE("machine: a node's interrupt handler serves one message at a time, eac
   CHECK(c.service_wait_s == doctest::Approx(0.3 + 1.7));
   CHECK(c.busy_s >= 0.5 + 0.5 + 0.5 + 0.5 + 0.4);  // every service is charged to the server
 }
+
+TEST_CASE("machine: real time blocked for mail is booked as idle, or as communication while waiting for a page") {
+  MachineParams p;
+  p.nodes = 2;
+  p.timeout_s = 60;
+  Machine machine(p);
+  const RunReport r = machine.run(
+      [](NodeContext& ctx) {
+        if (ctx.id() == 1) ctx.note_wait(WaitReason::kPage, 7, 0);
+        ctx.receive(WaitKind::kIdle);
+        ctx.note_wait(WaitReason::kNone);
+      },
+      [](NodeContext& host) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(40));
+        for (NodeId i = 0; i < 2; ++i) host.send(i, MessageType::kShutdown, Token{});
+      });
+  REQUIRE(r.nodes.size() == 2);
+  CHECK(r.nodes[0].counters.idle_wall_s >= 0.03);
+  CHECK(r.nodes[0].counters.communication_wall_s == 0);
+  CHECK(r.nodes[1].counters.communication_wall_s >= 0.03);
+  CHECK(r.nodes[1].counters.idle_wall_s == 0);
+  for (const NodeReport& n : r.nodes) CHECK(n.wall_s >= n.counters.idle_wall_s + n.counters.communication_wall_s);
+}
