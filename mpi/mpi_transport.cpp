@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <cstring>
 #include <mutex>
 #include <stdexcept>
@@ -97,7 +98,9 @@ struct MpiTransport::State {
   std::thread receiver;
   std::atomic<bool> receiving{false}, stopping{false};
   std::atomic<std::uint64_t> received{0};
-  std::atomic<int> waiting{0};  ///< nodes of this rank blocked for mail (note_waiting)
+  std::atomic<int> waiting{0};
+  std::mutex nap_mutex;          ///< the receiving thread's nap, ended early by a node that waits
+  std::condition_variable nap;  ///< nodes of this rank blocked for mail (note_waiting)
   /// Messages this process sent to each rank during the run.
   std::vector<std::uint64_t> sent;
   /// Sends in flight: their requests and buffers (index-aligned).
@@ -179,7 +182,10 @@ struct MpiTransport::State {
           std::this_thread::yield();
         } else {
           ++idle;
-          std::this_thread::sleep_for(std::chrono::microseconds(std::min(1000, 20 * idle)));
+          // A node that starts to wait ends the nap (note_waiting).
+          std::unique_lock<std::mutex> lock(nap_mutex);
+          nap.wait_for(lock, std::chrono::microseconds(std::min(1000, 20 * idle)),
+                       [&] { return waiting.load(std::memory_order_relaxed) > 0 || stopping.load(); });
         }
         continue;
       }
@@ -262,7 +268,11 @@ void MpiTransport::finish() {
 
 void MpiTransport::stop() noexcept {
   if (!s_->receiving.exchange(false)) return;
-  s_->stopping.store(true, std::memory_order_release);
+  {
+    std::lock_guard<std::mutex> lock(s_->nap_mutex);
+    s_->stopping.store(true, std::memory_order_release);
+  }
+  s_->nap.notify_one();
   if (s_->receiver.joinable()) s_->receiver.join();
 }
 
@@ -271,7 +281,12 @@ bool MpiTransport::poll() {
   return s_->receiving.load(std::memory_order_relaxed) && s_->receive_one(buf, false);
 }
 
-void MpiTransport::note_waiting(int delta) noexcept { s_->waiting.fetch_add(delta, std::memory_order_relaxed); }
+void MpiTransport::note_waiting(int delta) noexcept {
+  if (s_->waiting.fetch_add(delta, std::memory_order_relaxed) == 0 && delta > 0) {
+    std::lock_guard<std::mutex> lock(s_->nap_mutex);  // the napping thread checks `waiting` under it
+    s_->nap.notify_one();
+  }
+}
 
 void MpiTransport::gather(std::span<const std::byte> mine, std::span<std::byte> all) {
   check(MPI_Gather(mine.data(), int(mine.size()), MPI_BYTE, s_->rank == 0 ? all.data() : nullptr,
