@@ -10,6 +10,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstring>
+#include <exception>
 #include <mutex>
 #include <stdexcept>
 #include <thread>
@@ -98,9 +99,9 @@ struct MpiTransport::State {
   std::thread receiver;
   std::atomic<bool> receiving{false}, stopping{false};
   std::atomic<std::uint64_t> received{0};
-  std::atomic<int> waiting{0};
-  std::mutex nap_mutex;          ///< the receiving thread's nap, ended early by a node that waits
-  std::condition_variable nap;  ///< nodes of this rank blocked for mail (note_waiting)
+  std::atomic<int> waiting{0};  ///< nodes of this rank blocked for mail (note_waiting)
+  std::mutex nap_mutex;         ///< the receiving thread's nap, ended early by a node that waits
+  std::condition_variable nap;
   /// Messages this process sent to each rank during the run.
   std::vector<std::uint64_t> sent;
   /// Sends in flight: their requests and buffers (index-aligned).
@@ -174,9 +175,9 @@ struct MpiTransport::State {
     while (!stopping.load(std::memory_order_acquire)) {
       if (!receive_one(buf, true)) {
         // A node waits (a page, a work grant, rays): its core is free, so
-        // look again at once. Else back off to 200 us: a thread that wakes
-        // on a computing node's core costs it its caches (and its clock
-        // the refills), so it must wake rarely.
+        // look again at once. Else nap, up to 1 ms: a thread that wakes on
+        // a computing node's core costs it its caches (and its clock the
+        // refills), and the node takes its own mail meanwhile.
         if (waiting.load(std::memory_order_relaxed) > 0) {
           idle = 0;
           std::this_thread::yield();
@@ -204,7 +205,9 @@ MpiTransport::MpiTransport() : s_(std::make_unique<State>()) {
 
 MpiTransport::~MpiTransport() {
   stop();
-  if (g_started && s_->comm != MPI_COMM_NULL) MPI_Comm_free(&s_->comm);
+  // MPI_Comm_free is collective: not on the way out of a failure, which
+  // ends the job with MPI_Abort (end_session) instead.
+  if (g_started && s_->comm != MPI_COMM_NULL && std::uncaught_exceptions() == 0) MPI_Comm_free(&s_->comm);
 }
 
 std::uint32_t MpiTransport::processes() const { return std::uint32_t(s_->size); }
