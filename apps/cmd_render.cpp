@@ -67,6 +67,7 @@ struct RenderOptions {
   bool quiet = false;
   double timeout_s = 0;  ///< --timeout: the process's watchdog (apps/watchdog.h)
   std::string transport = "local";  ///< --transport: local (the emulator) or mpi (apps/transports.h)
+  std::string page_fetch = "request";  ///< --page-fetch: svm's page faults by request and reply, or one-sided get
   bool nodes_given = false;         ///< --nodes was on the command line
   nodes::Transport* transport_impl = nullptr;  ///< set by run_render under --transport mpi
   /// The emulated machine and the node modes: the options every node-mode
@@ -152,6 +153,9 @@ modes::RunRequest render_request(const RenderOptions& o, const Accelerator& acce
   if (node_mode) {
     req.nodes = node_spec(o);
     req.nodes.pack_min = o.pack_given ? o.pack_min : 0;  // svm pages the paper's object lists unless asked
+    if (o.page_fetch == "get" && o.transport != "mpi")
+      throw UsageError("--page-fetch get reads home pages one-sidedly over MPI: it needs --transport mpi");
+    req.nodes.fetch_by_get = o.page_fetch == "get";
   }
   return req;
 }
@@ -448,6 +452,12 @@ void register_render_command(CLI::App& app) {
                             "N nodes; only rank 0 writes files)") +
                     (have_mpi_transport() ? "" : "; this build has no MPI"))
       ->check(CLI::IsMember({"local", "mpi"}))
+      ->capture_default_str();
+  c->add_option("--page-fetch", o->page_fetch,
+                "svm: how a page fault gets its page: request (the paper's: a message to the home node, which "
+                "answers it) or get (--transport mpi: a one-sided MPI_Get of the home node's frame; the home node "
+                "takes no part, and no page messages are counted)")
+      ->check(CLI::IsMember({"request", "get"}))
       ->capture_default_str();
   c->callback([o, c] {
     o->pack_given = c->get_option("--pack-cells")->count() > 0;

@@ -49,6 +49,7 @@ struct NodeModeParams {
   std::uint32_t cache_pages = 0;      ///< svm: frames per node; 0 = all free memory
   double cache_fraction = 0;          ///< svm: of the database's pages, used when > 0
   std::uint32_t pack_min = 0;         ///< svm: page packed cells of at least this many triangles; 0 = the paper's object lists
+  bool fetch_by_get = false;          ///< svm: one-sided page reads through the machine's transport (--page-fetch get)
   int subsample = 8;                  ///< dataflow: load estimate, one pixel per NxN block
   dataflow::PartitionKind partition = dataflow::PartitionKind::kBalanced;  ///< dataflow
   std::uint32_t queue_capacity = 0;   ///< dataflow: mailbox slots; 0 = the mode's default

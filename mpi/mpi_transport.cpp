@@ -102,6 +102,7 @@ struct MpiTransport::State {
   std::atomic<int> waiting{0};  ///< nodes of this rank blocked for mail (note_waiting)
   std::mutex nap_mutex;         ///< the receiving thread's nap, ended early by a node that waits
   std::condition_variable nap;
+  MPI_Win window = MPI_WIN_NULL;  ///< expose(): this rank's region, for the others' MPI_Get
   /// Messages this process sent to each rank during the run.
   std::vector<std::uint64_t> sent;
   /// Sends in flight: their requests and buffers (index-aligned).
@@ -198,6 +199,8 @@ struct MpiTransport::State {
 MpiTransport::MpiTransport() : s_(std::make_unique<State>()) {
   if (!g_started) throw std::logic_error("MpiTransport needs mpi::start_session() first");
   check(MPI_Comm_dup(MPI_COMM_WORLD, &s_->comm), "MPI_Comm_dup");
+  // Errors come back as codes (check() throws them with their text), not as an abort without a word.
+  MPI_Comm_set_errhandler(s_->comm, MPI_ERRORS_RETURN);
   MPI_Comm_rank(s_->comm, &s_->rank);
   MPI_Comm_size(s_->comm, &s_->size);
   s_->sent.assign(std::size_t(s_->size), 0);
@@ -289,6 +292,29 @@ void MpiTransport::note_waiting(int delta) noexcept {
     std::lock_guard<std::mutex> lock(s_->nap_mutex);  // the napping thread checks `waiting` under it
     s_->nap.notify_one();
   }
+}
+
+void MpiTransport::expose(std::span<const std::byte> region) {
+  if (s_->window != MPI_WIN_NULL) throw std::logic_error("MpiTransport::expose: a region is already exposed");
+  // MPI takes a non-const base; the others only read it.
+  void* base = const_cast<std::byte*>(region.data());
+  check(MPI_Win_create(base, MPI_Aint(region.size()), 1, MPI_INFO_NULL, s_->comm, &s_->window),
+        "MPI_Win_create (one-sided reads; this MPI may have no one-sided support between these ranks)");
+  MPI_Win_set_errhandler(s_->window, MPI_ERRORS_RETURN);
+  check(MPI_Win_lock_all(MPI_MODE_NOCHECK, s_->window), "MPI_Win_lock_all");
+}
+
+void MpiTransport::read(std::uint32_t process, std::size_t offset, std::span<std::byte> into) {
+  check(MPI_Get(into.data(), int(into.size()), MPI_BYTE, int(process), MPI_Aint(offset), int(into.size()), MPI_BYTE,
+                s_->window),
+        "MPI_Get");
+  check(MPI_Win_flush(int(process), s_->window), "MPI_Win_flush");
+}
+
+void MpiTransport::conceal() {
+  if (s_->window == MPI_WIN_NULL) return;
+  MPI_Win_unlock_all(s_->window);
+  MPI_Win_free(&s_->window);  // collective: waits until no rank reads any more
 }
 
 void MpiTransport::gather(std::span<const std::byte> mine, std::span<std::byte> all) {

@@ -62,6 +62,12 @@ class MpiTransport final : public nodes::Transport {
   bool poll() override;
   void note_waiting(int delta) noexcept override;
   void gather(std::span<const std::byte> mine, std::span<std::byte> all) override;
+  /// One-sided reads: an MPI window over each rank's region (MPI_Win_create,
+  /// MPI_Win_lock_all), read with MPI_Get and MPI_Win_flush (passive target).
+  bool reads_remote() const override { return true; }
+  void expose(std::span<const std::byte> region) override;
+  void read(std::uint32_t process, std::size_t offset, std::span<std::byte> into) override;
+  void conceal() override;
 
  private:
   struct State;

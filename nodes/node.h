@@ -172,6 +172,8 @@ class NodeContext {
   /// What a busy node grants a work request (MachineParams).
   WorkGrant work_grant() const;
   Arena& arena() { return arena_; }
+  /// The transport to other processes (MachineParams::transport); null in the emulator.
+  Transport* transport() const { return transport_; }
   Mailbox& mailbox() { return *mailbox_; }
   const NodeCounters& counters() const { return counters_; }
 

@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <functional>
 #include <span>
+#include <stdexcept>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -76,6 +77,22 @@ class Transport {
   /// messages at once; while all compute, it should stay off their cores.
   /// Thread safe; a hint.
   virtual void note_waiting(int delta) noexcept = 0;
+  // --- One-sided reads (remote memory access), optional -------------------
+  /// Does read() work?
+  virtual bool reads_remote() const { return false; }
+  /// Collective, once per run on every process (from its node's setup):
+  /// lets the other processes read `region` (read()) until conceal().
+  virtual void expose(std::span<const std::byte> region) {
+    throw std::logic_error(name() + " transport: no one-sided reads");
+  }
+  /// Copies into `into` the bytes at `offset` of `process`'s exposed region,
+  /// without that process taking part. Thread safe.
+  virtual void read(std::uint32_t process, std::size_t offset, std::span<std::byte> into) {
+    throw std::logic_error(name() + " transport: no one-sided reads");
+  }
+  /// Collective: withdraws this process's region (before its memory goes).
+  virtual void conceal() {}
+
   /// Collective: process 0 gets every process's `mine` (all of the same
   /// size) in process order in `all` (processes() x mine.size() bytes);
   /// other processes leave `all` untouched.

@@ -202,41 +202,14 @@ bool Pager::serve(const nodes::Message& m) {
   return true;
 }
 
-std::uint32_t Pager::fault(std::uint32_t page) {
-  if (page >= layout_.pages)
-    throw std::logic_error(fmt::format("{}: access to page {} of {}", nodes::node_name(ctx_.id()), page,
-                                       layout_.pages));
-  if (cache_frames_ == 0)
-    throw std::logic_error(fmt::format("{}: page {} is not home and the node has no cache",
-                                       nodes::node_name(ctx_.id()), page));
-  ++stats_.misses;
-  if (lru_ordered()) ++stats_.cache_misses;
-  ++stats_.segment_misses[std::size_t(layout_.segment(page))];
-  // The victim: a free cache frame, else the least recently used page (the
-  // touches noted so far in this pixel count).
-  flush_recency();
-  std::uint32_t victim;
-  if (cache_used_ < cache_frames_) {
-    victim = home_frames_ + cache_used_++;
-  } else {
-    victim = lru_victim();
-    // Off at()'s fast path; its stamp remembers a touch in this pixel.
-    const std::uint32_t evicted_page = frame_page_[victim - home_frames_];
-    PageEntry& evicted = table_[evicted_page];
-    set_frame_offset(evicted_page, not_resident_);
-    if (evicted.stamp == pixel_stamp_) evicted.stamp |= kEvictedInPixel;
-    frame_page_[victim - home_frames_] = kNone;
-    ++stats_.evictions;
-    }
-
-  const nodes::NodeId home = PageLayout::home(page, nodes_);
-  ctx_.send(home, nodes::MessageType::kPageRequest, PageRequestMsg{page});
-  std::byte* frame = frames_ + (std::size_t(victim) << layout_.page_shift);
+/// Waits for the reply to this node's request for `page` from `home`,
+/// copies it into `frame` and returns its arrival time, serving (or
+/// deferring) other mail meanwhile; `released` tells whether the run permit
+/// was given up.
+double Pager::await_page(std::uint32_t page, nodes::NodeId home, std::byte* frame, bool& released, nodes::Message& m) {
+  bool got = false;
   double arrival = 0;
-  bool got = false, released = false;
   int spins = 0;
-  nodes::Message m;
-  ctx_.note_wait(nodes::WaitReason::kPage, page, home);
   while (!got) {
     if (!ctx_.poll(m)) {
       // The reply usually comes within microseconds (the home node serves
@@ -244,7 +217,7 @@ std::uint32_t Pager::fault(std::uint32_t page) {
       // home node's thread, so that this node's caches stay warm (its CPU
       // time is its virtual clock: refilling them after a thread switch
       // would be charged as work). The wait itself is not work: it is
-      // dropped from the clock, which advance_to() below sets to the
+      // dropped from the clock, which advance_to() in fault() sets to the
       // reply's arrival. Then block, giving the run permit away. Not while
       // the home node needs a permit to read its mail (scheduled mail
       // wake-ups): every permit may be held by nodes spinning like this
@@ -277,6 +250,57 @@ std::uint32_t Pager::fault(std::uint32_t page) {
     } else {
       serve_or_defer(m);
     }
+  }
+  return arrival;
+}
+
+std::uint32_t Pager::fault(std::uint32_t page) {
+  if (page >= layout_.pages)
+    throw std::logic_error(fmt::format("{}: access to page {} of {}", nodes::node_name(ctx_.id()), page,
+                                       layout_.pages));
+  if (cache_frames_ == 0)
+    throw std::logic_error(fmt::format("{}: page {} is not home and the node has no cache",
+                                       nodes::node_name(ctx_.id()), page));
+  ++stats_.misses;
+  if (lru_ordered()) ++stats_.cache_misses;
+  ++stats_.segment_misses[std::size_t(layout_.segment(page))];
+  // The victim: a free cache frame, else the least recently used page (the
+  // touches noted so far in this pixel count).
+  flush_recency();
+  std::uint32_t victim;
+  if (cache_used_ < cache_frames_) {
+    victim = home_frames_ + cache_used_++;
+  } else {
+    victim = lru_victim();
+    // Off at()'s fast path; its stamp remembers a touch in this pixel.
+    const std::uint32_t evicted_page = frame_page_[victim - home_frames_];
+    PageEntry& evicted = table_[evicted_page];
+    set_frame_offset(evicted_page, not_resident_);
+    if (evicted.stamp == pixel_stamp_) evicted.stamp |= kEvictedInPixel;
+    frame_page_[victim - home_frames_] = kNone;
+    ++stats_.evictions;
+    }
+
+  const nodes::NodeId home = PageLayout::home(page, nodes_);
+  std::byte* frame = frames_ + (std::size_t(victim) << layout_.page_shift);
+  double arrival = 0;
+  bool released = false;
+  nodes::Message m;
+  ctx_.note_wait(nodes::WaitReason::kPage, page, home);
+  if (get_from_) {
+    // One-sided: read the home frame; the home node takes no part. In
+    // virtual time it costs what a request and its reply would.
+    const double start = ctx_.now();
+    get_from_->read(home, std::size_t(PageLayout::home_slot(page, nodes_)) << layout_.page_shift,
+                    std::span<std::byte>(frame, layout_.page_size));
+    ctx_.reset_cpu_mark();  // the wait is not work
+    const nodes::NetworkModel& net = ctx_.network();
+    const std::uint32_t hops = ctx_.topology().hops(ctx_.id(), home);
+    arrival = start + net.message_time(sizeof(PageRequestMsg), hops) +
+              net.message_time(std::uint32_t(sizeof(PageReplyMsg) + layout_.page_size), hops);
+  } else {
+    ctx_.send(home, nodes::MessageType::kPageRequest, PageRequestMsg{page});
+    arrival = await_page(page, home, frame, released, m);
   }
   ctx_.note_wait(nodes::WaitReason::kNone);
   ctx_.advance_to(arrival, nodes::WaitKind::kCommunication);

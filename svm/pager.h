@@ -121,6 +121,15 @@ class Pager {
   /// std::length_error when the frames, with the list buffer, exceed
   /// kPagerMaxFrameBytes). The home frames are zero until load_home_page().
   Pager(nodes::NodeContext& ctx, const PageLayout& layout, std::uint32_t cache_pages);
+  /// Fetch pages with one-sided reads of the home node's home frames
+  /// (`transport`'s read(), --page-fetch get) instead of a request the home
+  /// node answers. Every node's home frames must be exposed (home_region()).
+  void fetch_by_get(nodes::Transport* transport) { get_from_ = transport; }
+  /// This node's home frames (page p at (p / nodes) x page size), for
+  /// Transport::expose.
+  std::span<const std::byte> home_region() const {
+    return {frames_, std::size_t(home_frames_) << layout_.page_shift};
+  }
   Pager(const Pager&) = delete;
   Pager& operator=(const Pager&) = delete;
 
@@ -306,6 +315,8 @@ class Pager {
   [[gnu::noinline]] std::uint32_t fault(std::uint32_t page);
   /// Answers waiting page requests; defers other messages.
   void serve_or_defer(const nodes::Message& m);
+  /// fault()'s wait for the home node's reply: the page's arrival time.
+  double await_page(std::uint32_t page, nodes::NodeId home, std::byte* frame, bool& released, nodes::Message& m);
 
   // at()'s fields first, near each other (the counters last of them, so
   // that their size does not push the others apart).
@@ -328,6 +339,7 @@ class Pager {
   /// never a page's frame (an offset in it stays at or above home_end_).
   std::uint32_t not_resident_ = 0;
   std::uint32_t cache_frames_;
+  nodes::Transport* get_from_ = nullptr;  ///< fetch_by_get(): one-sided page reads
   std::uint32_t cache_used_ = 0;
   nodes::ArenaArray<std::uint32_t> frame_page_;  ///< per cache frame: its page, or kNone
   nodes::ArenaArray<std::uint32_t> frame_used_;  ///< per cache frame: LRU stamp of its last (first-per-pixel) touch

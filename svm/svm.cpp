@@ -3,6 +3,7 @@
 #include <fmt/core.h>
 
 #include <algorithm>
+#include <exception>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -271,8 +272,15 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
   // (ipsc2: NetworkModel::fault_s) replaces the cost model's figure.
   core::CostModel cost_model = m.cost_model;
   if (m.network.fault_s >= 0) cost_model.unit_s[std::size_t(core::CostFeature::kPageFault)] = m.network.fault_s;
+  if (params.fetch_by_get && !(m.transport && m.transport->reads_remote()))
+    throw std::invalid_argument("--page-fetch get reads home pages one-sidedly: it needs a transport with "
+                                "one-sided reads (--transport mpi)");
   auto setup = [&](NodeContext& ctx) {
     states[ctx.id()] = make_node_state(ctx, in, rp, submaps[ctx.id()], cost_model, cache[ctx.id()], m.max_payload);
+    if (params.fetch_by_get && m.nodes > 1) {  // collective: every process's node exposes its home frames
+      states[ctx.id()]->pager->fetch_by_get(m.transport);
+      m.transport->expose(states[ctx.id()]->pager->home_region());
+    }
     // The last node built here: one per process under a transport.
     if (ctx.id() + 1 == m.nodes || m.transport) host_pages.protect();
   };
@@ -296,6 +304,8 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
   out.pager.resize(m.nodes);
   try {
     out.run = machine.run(node_main, host_main, setup, [&](NodeContext& ctx) {
+      // Collective, so not on the way out of a failure (the job is aborted then).
+      if (params.fetch_by_get && m.nodes > 1 && std::uncaught_exceptions() == 0) m.transport->conceal();
       if (states[ctx.id()]) {  // keep the counters, free the arena's contents
         out.tracing[ctx.id()] = states[ctx.id()]->stats;
         out.work[ctx.id()] = states[ctx.id()]->work;

@@ -56,6 +56,10 @@ struct SvmParams {
   /// The static submaps (--submaps, --subsample): square (the paper's)
   /// or balanced by a host estimate (control/submap_plan.h).
   control::SubmapParams submaps;
+  /// Fetch a page with a one-sided read of its home node's frame
+  /// (Transport::read, --page-fetch get) instead of a request the home node
+  /// answers. Needs a transport with one-sided reads (std::invalid_argument).
+  bool fetch_by_get = false;
   bool node_aov = false;   ///< image of which node computed each pixel (the paper's Figure 6)
   bool pages_aov = false;  ///< image of the distinct pages each pixel touched
   /// Test of the no-cheating rule: node 0 reads the host's (protected)
