@@ -286,11 +286,11 @@ std::uint32_t Pager::fault(std::uint32_t page) {
   double arrival = 0;
   bool released = false;
   nodes::Message m;
-  ctx_.note_wait(nodes::WaitReason::kPage, page, home);
   if (get_from_) {
     // One-sided: read the home frame; the home node takes no part. In
     // virtual time it costs what a request and its reply would.
     const double start = ctx_.now();
+    ctx_.note_wait(nodes::WaitReason::kPage, page, home);
     get_from_->read(home, std::size_t(PageLayout::home_slot(page, nodes_)) << layout_.page_shift,
                     std::span<std::byte>(frame, layout_.page_size));
     ctx_.reset_cpu_mark();  // the wait is not work
@@ -300,6 +300,7 @@ std::uint32_t Pager::fault(std::uint32_t page) {
               net.message_time(std::uint32_t(sizeof(PageReplyMsg) + layout_.page_size), hops);
   } else {
     ctx_.send(home, nodes::MessageType::kPageRequest, PageRequestMsg{page});
+    ctx_.note_wait(nodes::WaitReason::kPage, page, home);
     arrival = await_page(page, home, frame, released, m);
   }
   ctx_.note_wait(nodes::WaitReason::kNone);
