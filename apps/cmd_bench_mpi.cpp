@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "apps/commands.h"
+#include "apps/node_runs.h"
 #include "apps/output_files.h"
 #include "apps/transports.h"
 #include "nodes/machine.h"
@@ -29,41 +30,17 @@ struct BenchMpiOptions {
   std::string json_path;
 };
 
-/// Half the mean round trip of `repeats` messages of `bytes` bytes between
-/// nodes 0 and 1 of a machine over `transport` (a kTest message each way:
-/// send, the receiving rank's delivery into the mailbox, the node's
-/// receive), wall seconds; measured on node 0, so valid on rank 0.
-double transport_ping_pong_s(nodes::Transport& transport, std::size_t bytes, int repeats) {
+/// A message's one-way time through `transport` (half a round trip between
+/// nodes 0 and 1: send, the receiving rank's delivery into the mailbox, the
+/// node's receive), wall seconds; valid on rank 0.
+double transport_one_way_s(nodes::Transport& transport, std::size_t bytes, int repeats) {
   nodes::MachineParams mp;
   mp.nodes = transport.processes();
   mp.transport = &transport;
-  mp.max_payload = std::uint32_t(std::max<std::size_t>(bytes, 8));
   mp.mailbox_capacity = 4;
-  mp.node_memory = 8 * mp.max_payload + (std::size_t(1) << 20);
+  mp.node_memory = 8 * std::max<std::size_t>(bytes, 256) + (std::size_t(1) << 20);
   mp.timeout_s = 120;
-  nodes::Machine machine(mp);
-  double seconds = 0;
-  const std::vector<std::byte> payload(bytes);
-  auto node_main = [&](nodes::NodeContext& ctx) {
-    if (ctx.id() > 1 || mp.nodes < 2) return;
-    const std::span<const std::byte> part[1] = {payload};
-    const std::span<const std::span<const std::byte>> parts(part, 1);
-    if (ctx.id() == 0) {
-      const auto t0 = std::chrono::steady_clock::now();
-      for (int i = 0; i < repeats; ++i) {
-        ctx.send(1, nodes::MessageType::kTest, parts);
-        ctx.receive(nodes::WaitKind::kCommunication);
-      }
-      seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / (2.0 * repeats);
-    } else {
-      for (int i = 0; i < repeats; ++i) {
-        ctx.receive(nodes::WaitKind::kIdle);
-        ctx.send(0, nodes::MessageType::kTest, parts);
-      }
-    }
-  };
-  machine.run(node_main, [](nodes::NodeContext&) {});
-  return seconds;
+  return node_round_trip_s(mp, bytes, std::uint64_t(repeats)) / 2;
 }
 
 void run_bench_mpi(const BenchMpiOptions& o) {
@@ -86,7 +63,7 @@ void run_bench_mpi(const BenchMpiOptions& o) {
   std::vector<Row> rows;
   for (std::size_t bytes : o.sizes) {
     const double raw = mpi_ping_pong_s(bytes, o.repeats);
-    const double via = transport_ping_pong_s(*transport, bytes, o.repeats);
+    const double via = transport_one_way_s(*transport, bytes, o.repeats);
     rows.push_back({bytes, raw, via});
   }
   if (!writer) return;

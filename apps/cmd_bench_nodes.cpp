@@ -71,32 +71,6 @@ double mailbox_throughput(std::uint32_t producers, std::uint64_t per_producer, s
 }
 
 /// Microseconds per round trip between two nodes of an emulated machine.
-double round_trip_us(std::uint64_t trips) {
-  nodes::MachineParams p;
-  p.nodes = 2;
-  p.timeout_s = 120;
-  nodes::Machine machine(p);
-  double seconds = 0;
-  machine.run(
-      [&](nodes::NodeContext& ctx) {
-        const nodes::NodeId other = 1 - ctx.id();
-        const std::uint64_t token = 0;
-        const auto t0 = std::chrono::steady_clock::now();
-        for (std::uint64_t i = 0; i < trips; ++i) {
-          if (ctx.id() == 0) {
-            ctx.send(other, nodes::MessageType::kTest, token);
-            ctx.receive(nodes::WaitKind::kIdle);
-          } else {
-            ctx.receive(nodes::WaitKind::kIdle);
-            ctx.send(other, nodes::MessageType::kTest, token);
-          }
-        }
-        if (ctx.id() == 0) seconds = seconds_since(t0);
-      },
-      [](nodes::NodeContext&) {});
-  return 1e6 * seconds / double(trips);
-}
-
 struct NodesBenchOptions {
   core::SceneSource source;
   std::string nodes = "1,2,4,8,16,32,64";  ///< --nodes: a list, "1,2,4" or "1..64" (parse_node_list)
@@ -316,7 +290,12 @@ void register_bench_nodes_commands(CLI::App& app) {
         fmt::print("mailbox: {} producer(s), {:>4} B payload: {:>12.0f} messages/s\n", producers, payload,
                    mailbox_throughput(producers, mo->messages / producers, payload));
     fmt::print("round trip between two nodes (send + blocking receive, both ways): {:.2f} us\n",
-               round_trip_us(mo->trips));
+               [&] {
+                 nodes::MachineParams p;
+                 p.nodes = 2;
+                 p.timeout_s = 120;
+                 return 1e6 * node_round_trip_s(p, sizeof(std::uint64_t), mo->trips);
+               }());
   });
 
   auto no = std::make_shared<NodesBenchOptions>();

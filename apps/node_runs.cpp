@@ -432,6 +432,33 @@ ModelCalibration calibrate_model_clock(nodes::MachineParams& machine, const core
   return c;
 }
 
+double node_round_trip_s(nodes::MachineParams p, std::size_t bytes, std::uint64_t trips) {
+  p.max_payload = std::max(p.max_payload, std::uint32_t(bytes));
+  nodes::Machine machine(p);
+  double seconds = 0;
+  const std::vector<std::byte> payload(bytes);
+  const std::span<const std::byte> part[1] = {payload};
+  const std::span<const std::span<const std::byte>> parts(part, 1);
+  machine.run(
+      [&](nodes::NodeContext& ctx) {
+        if (ctx.id() > 1) return;
+        const nodes::NodeId other = 1 - ctx.id();
+        const auto t0 = std::chrono::steady_clock::now();
+        for (std::uint64_t i = 0; i < trips; ++i) {
+          if (ctx.id() == 0) {
+            ctx.send(other, nodes::MessageType::kTest, parts);
+            ctx.receive(nodes::WaitKind::kIdle);
+          } else {
+            ctx.receive(nodes::WaitKind::kIdle);
+            ctx.send(other, nodes::MessageType::kTest, parts);
+          }
+        }
+        if (ctx.id() == 0) seconds = seconds_since(t0);
+      },
+      [](nodes::NodeContext&) {});
+  return seconds / double(trips);
+}
+
 std::string hours_minutes_seconds(double s) {
   if (!(s >= 0) || !std::isfinite(s)) return "?";
   const long long t = std::llround(s);

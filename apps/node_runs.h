@@ -28,6 +28,7 @@
 #include <optional>
 #include <string>
 #include <utility>
+#include <span>
 #include <vector>
 
 #include "apps/commands.h"
@@ -251,5 +252,13 @@ std::string hours_minutes_seconds(double seconds);
 
 /// Seconds since `t0` on the steady clock.
 double seconds_since(std::chrono::steady_clock::time_point t0);
+
+/// Wall seconds per round trip of a `bytes`-byte kTest message between
+/// nodes 0 and 1 of a machine built from `p` (2 or more nodes; the payload
+/// limit is raised to `bytes` if need be; other nodes idle), over `trips`
+/// trips: send, the other's receive and reply, the receive. Measured on
+/// node 0, so valid in the process that runs it (`bench mailbox`; under a
+/// transport, `bench mpi` on rank 0).
+double node_round_trip_s(nodes::MachineParams p, std::size_t bytes, std::uint64_t trips);
 
 }  // namespace raynode::apps
