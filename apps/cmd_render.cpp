@@ -62,6 +62,7 @@ struct RenderOptions {
   int spp = 1;
   int max_depth = 5;
   float min_weight = 0.0f;
+  std::string shadow_rays = "facing";
   std::string stats_path;
   std::vector<std::string> aovs;
   bool quiet = false;
@@ -195,6 +196,7 @@ core::RenderParams render_params(const RenderOptions& o, bool& node_aov, bool& p
   params.spp = o.spp;
   params.max_depth = o.max_depth;
   params.min_weight = o.min_weight;
+  params.shadow_rays = o.shadow_rays == "all" ? core::ShadowRays::kAll : core::ShadowRays::kFacing;
   node_aov = pages_aov = false;
   for (const std::string& a : o.aovs) {
     if (a == "node") node_aov = true;
@@ -425,6 +427,9 @@ void register_render_command(CLI::App& app) {
                 "Skip reflected/refracted rays whose weight (product of Ks, T along the path) is below this "
                 "(0 = off)")
       ->check(finite_range(0, 1))
+      ->capture_default_str();
+  c->add_option("--shadow-rays", o->shadow_rays, kShadowRaysHelp)
+      ->check(CLI::IsMember({"facing", "all"}))
       ->capture_default_str();
   c->add_option("--stats", o->stats_path,
                 "Write counters (rays per kind, skips per reason, intersection tests, cells) and timings as "

@@ -125,6 +125,9 @@ void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) 
     c.add_option("--repeat", o.repeat, "Runs per point; the one with the lowest T_p is kept (best of)")
         ->check(CLI::Range(1, 100))
         ->capture_default_str();
+    c.add_option("--shadow-rays", o.shadow_rays, kShadowRaysHelp)
+        ->check(CLI::IsMember({"facing", "all"}))
+        ->capture_default_str();
   }
   if (set.page_size) {
     c.add_option("--page-size", o.page_size,
@@ -189,6 +192,7 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
   NodeRunSpec s;
   s.render.width = o.width;
   s.render.height = o.height;
+  s.render.shadow_rays = o.shadow_rays == "all" ? core::ShadowRays::kAll : core::ShadowRays::kFacing;
   nodes::MachineParams& m = s.machine;
   try {
     m.node_memory = nodes::parse_bytes(o.node_memory);
@@ -392,6 +396,7 @@ std::pair<double, double> time_sample(const core::Database& db, const core::Grid
   p.spp = render.spp;
   p.max_depth = render.max_depth;
   p.min_weight = render.min_weight;
+  p.shadow_rays = render.shadow_rays;
   const double t0 = nodes::thread_cpu_seconds();
   const core::RenderResult r = core::render(db, grid, p);
   return {nodes::thread_cpu_seconds() - t0, model.seconds(r.stats.rays, r.stats.traversal)};

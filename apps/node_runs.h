@@ -74,6 +74,7 @@ struct NodeRunOptions {
   double schedule_window_us = 200;      ///< virtual-time scheduling window, microseconds
   std::string mail_wakeups = "auto";   ///< --mail-wakeups: auto, scheduled or immediate
   std::string clock = "cpu";            ///< cpu or model (nodes::ComputeClock)
+  std::string shadow_rays = "facing";   ///< facing or all (core::ShadowRays)
   std::string calibrate = "auto";       ///< model clock: auto, on or off (calibrate_model_clock)
   std::string work_requests = "ring";   ///< ring, last-grantor or off (nodes::WorkRequestRoute)
   std::string work_grants = "item";     ///< item, nearest or half (nodes::WorkGrant)
@@ -95,6 +96,11 @@ struct NodeRunOptions {
 };
 
 /// Which options add_node_run_options adds besides the machine's.
+/// --shadow-rays' help, for render and the node commands.
+inline constexpr const char* kShadowRaysHelp =
+    "Lights a hit casts shadow rays to: facing (those the surface faces; a light behind adds nothing) or all "
+    "(every light, as the paper's tracer counted its rays: the same image, more rays)";
+
 struct NodeRunOptionSet {
   bool experiment = true;  ///< --width, --height, --grid, --skip-empty, --timeout (per run), --repeat
   bool page_size = true;   ///< --page-size, --directory-order (svm)

@@ -71,6 +71,7 @@ nlohmann::json render_stats_json(const RenderRecord& r) {
       {"spp", r.params.spp},
       {"max_depth", r.params.max_depth},
       {"min_weight", r.params.min_weight},
+      {"shadow_rays", core::shadow_rays_name(r.params.shadow_rays)},
       {"rays",
        {{"primary", s.rays.primary},
         {"shadow", s.rays.shadow},

@@ -124,7 +124,8 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
     mine.cell_entries = s.cell_entries.span();
     mine.top_sub_grid_bits = s.top_sub_grid_bits.span();
     const core::ShadingContext shading = core::make_shading_context(
-        std::span<const core::Light>(s.lights.span()), s.background, s.render.max_depth, s.render.min_weight);
+        std::span<const core::Light>(s.lights.span()), s.background, s.render.max_depth, s.render.min_weight,
+        s.render.shadow_rays);
     ctx.set_work_meter(&NodeState::work_seconds, &s);
     const PixelJob job{shading, s.camera, s.render.spp, s.render.any_aov(), layout, *s.scratch, s.batch};
     s.work = render_items(ctx, s.submap, params.item_w, params.item_h, core::DirectView(mine), job);

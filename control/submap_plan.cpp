@@ -29,7 +29,7 @@ PixelCostEstimate estimate_pixel_cost(const core::Database& db, const core::Grid
   const int w = camera.width(), h = camera.height();
   const core::DirectView view(db, grid);
   const core::ShadingContext shading =
-      core::make_shading_context(db.lights, db.background, render.max_depth, render.min_weight);
+      core::make_shading_context(db.lights, db.background, render.max_depth, render.min_weight, render.shadow_rays);
   auto scratch = std::make_unique<core::ShadingScratch>();  // its mailbox is 4 KiB
   PixelCostEstimate out;
   out.cost.assign(std::size_t(w) * std::size_t(h), 0.0);

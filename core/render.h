@@ -53,6 +53,7 @@ struct RenderParams {
   int spp = 1;              ///< N: N x N stratified samples per pixel, N >= 1
   int max_depth = 5;        ///< ray levels (eye ray = 1), >= 1
   float min_weight = 0.0f;  ///< Hall & Greenberg pruning threshold, 0 = off
+  ShadowRays shadow_rays = ShadowRays::kFacing;  ///< lights a hit casts shadow rays to
   bool depth_aov = false;   ///< also produce the depth image
   bool normal_aov = false;  ///< also produce the normal image
   bool primitive_aov = false;  ///< also produce the primitive (NFF shape index) image
@@ -188,7 +189,7 @@ RenderResult render_image(const View& view, const Database& db, const RenderPara
   const int w = params.width > 0 ? params.width : cam_view.width;
   const int h = params.height > 0 ? params.height : cam_view.height;
   const Camera camera(cam_view, w, h);
-  const ShadingContext ctx = make_shading_context(db, params.max_depth, params.min_weight);
+  const ShadingContext ctx = make_shading_context(db, params.max_depth, params.min_weight, params.shadow_rays);
   RenderResult result;
   result.color = Image(w, h, 3);
   if (params.depth_aov) result.depth = Image(w, h, 1);

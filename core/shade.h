@@ -108,6 +108,16 @@ struct RenderStats {
   }
 };
 
+/// Which lights a hit casts shadow rays to. kFacing (the default): only
+/// those the shading normal faces, since a light behind the surface adds
+/// nothing. kAll: every light, as the paper's tracer counted them (its
+/// Table 2 ray counts for Tetra9 and Tetra10 are ours plus the lights
+/// behind the surface; docs/results.md); a ray to a light behind adds
+/// nothing either, so the image is the same and only the work differs.
+enum class ShadowRays : std::uint8_t { kFacing, kAll };
+/// "facing", "all".
+inline const char* shadow_rays_name(ShadowRays s) { return s == ShadowRays::kAll ? "all" : "facing"; }
+
 /// What shading needs besides the database view: the O(1) scene metadata
 /// every node replicates (lights, background), intensities and recursion
 /// limits. Materials and `pp` vertex normals are per-object data and come
@@ -122,12 +132,13 @@ struct ShadingContext {
   float ambient_intensity = 0.5f;  ///< sqrt(L)/(2L), 1/2 with no lights
   int max_depth = 5;               ///< ray levels, eye ray = 1
   float min_weight = 0.0f;         ///< Hall & Greenberg pruning threshold (0 = off)
+  ShadowRays shadow_rays = ShadowRays::kFacing;
 };
 
 /// Builds the context for these lights and background with SPD's
 /// intensities. max_depth >= 1.
 inline ShadingContext make_shading_context(std::span<const Light> lights, const Vec3& background, int max_depth = 5,
-                                           float min_weight = 0.0f) {
+                                           float min_weight = 0.0f, ShadowRays shadow_rays = ShadowRays::kFacing) {
   ShadingContext c;
   c.lights = lights;
   c.background = background;
@@ -137,12 +148,14 @@ inline ShadingContext make_shading_context(std::span<const Light> lights, const 
   c.ambient_intensity = i;
   c.max_depth = max_depth;
   c.min_weight = min_weight;
+  c.shadow_rays = shadow_rays;
   return c;
 }
 
 /// The context for `db`'s lights and background (db must outlive it).
-inline ShadingContext make_shading_context(const Database& db, int max_depth = 5, float min_weight = 0.0f) {
-  return make_shading_context(std::span<const Light>(db.lights), db.background, max_depth, min_weight);
+inline ShadingContext make_shading_context(const Database& db, int max_depth = 5, float min_weight = 0.0f,
+                                           ShadowRays shadow_rays = ShadowRays::kFacing) {
+  return make_shading_context(std::span<const Light>(db.lights), db.background, max_depth, min_weight, shadow_rays);
 }
 
 /// Refraction direction by Snell's law (Whitted 1980; vector form as in
@@ -227,7 +240,8 @@ enum class ChildKind : std::uint8_t { kReflected, kRefracted };
 /// The ambient term (ambient_term) is the caller's; shade_hit calls, in this
 /// order:
 /// - `shadow(ray, light_term, highlight_skipped)` for each light the shading
-///   normal faces: `ray` runs from the hit to the light (tmax 1), and
+///   normal faces (every light under ShadowRays::kAll, a light behind
+///   giving a black term): `ray` runs from the hit to the light (tmax 1), and
 ///   `light_term()` is the light's Lambert + Phong term, to add when nothing
 ///   blocks `ray`; `highlight_skipped` says Ks > 0 but the highlight was off
 ///   (counted by the caller, as skipped.highlight_marker, when unblocked);
@@ -250,12 +264,14 @@ void shade_hit(const ShadingContext& ctx, const Material& m, const SurfaceFrame&
     if (!(dist > 0.0f)) continue;
     const Vec3 l = to_light * (1.0f / dist);
     const float ndotl = dot(ns, l);
-    if (ndotl <= 0.0f) {
+    const bool facing = ndotl > 0.0f;
+    if (!facing && ctx.shadow_rays == ShadowRays::kFacing) {
       ++st.skipped.shadow_backfacing;
       continue;
     }
     ++st.rays.shadow;
     auto light_term = [&] {
+      if (!facing) return Vec3{};  // ShadowRays::kAll: a light behind the surface adds nothing
       Vec3 c = m.color * (m.kd * ndotl);
       if (highlight) {
         const Vec3 r = ns * (2.0f * ndotl) - l;
@@ -264,7 +280,7 @@ void shade_hit(const ShadingContext& ctx, const Material& m, const SurfaceFrame&
       }
       return c * light.color * ctx.light_intensity;
     };
-    shadow(Ray{above, to_light, 0.0f, 1.0f}, light_term, !highlight && m.ks > 0.0f);
+    shadow(Ray{above, to_light, 0.0f, 1.0f}, light_term, facing && !highlight && m.ks > 0.0f);
   }
 
   // May a child ray of weight w be cast? Counts the skip reason otherwise.

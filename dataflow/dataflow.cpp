@@ -158,6 +158,7 @@ std::unique_ptr<NodeState> make_node_state(Arena& a, const RegionDatabase& rd,
   s->spp = in.render.spp;
   s->max_depth = in.render.max_depth;
   s->min_weight = in.render.min_weight;
+  s->shadow_rays = in.render.shadow_rays;
   s->primitives = nodes::copy_to_arena(a, std::span<const core::Primitive>(rd.db.primitives), "the region's primitives");
   s->vertex_normals =
       nodes::copy_to_arena(a, std::span<const core::TriangleNormals>(rd.db.vertex_normals), "the region's vertex normals");
@@ -232,6 +233,7 @@ DataflowResult render_dataflow(const core::Database& db, const core::Grid& grid,
   ep.spp = 1;
   ep.max_depth = rp.max_depth;
   ep.min_weight = rp.min_weight;
+  ep.shadow_rays = rp.shadow_rays;
   ep.regions = n;
   out.estimate = estimate_load(db, grid, camera, frame, extent, ep);
   out.extent = extent;

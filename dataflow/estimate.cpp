@@ -68,7 +68,7 @@ void charge(const core::Database& db, const core::Grid& grid, const core::Camera
   const std::vector<std::uint32_t> bin = cost_bins_of_cells(grid, frame, c);
   const core::DirectView base(db, grid);
   const CostView view(base, bin.data(), c.cost.data());
-  const core::ShadingContext ctx = core::make_shading_context(db, params.max_depth, params.min_weight);
+  const core::ShadingContext ctx = core::make_shading_context(db, params.max_depth, params.min_weight, params.shadow_rays);
   core::ShadingScratch scratch;
   const int s = params.subsample, half = s / 2;
   out.pixels = 0;

@@ -68,6 +68,7 @@ struct EstimateParams {
   int spp = 1;           ///< samples per pixel, as the frame will use
   int max_depth = 5;
   float min_weight = 0;
+  core::ShadowRays shadow_rays = core::ShadowRays::kFacing;
   /// Regions the cost grid will be cut into: a cell holding more than half
   /// a region's share makes estimate_load charge again on a finer grid.
   std::uint32_t regions = 1;

@@ -68,7 +68,7 @@ class NodeTracer {
         view_(arrays_of(s), s.shared.data(), &s.stats.shared_tests),
         map_{s.frame, s.tree.span(), s.rects.span()},
         shading_(core::make_shading_context(std::span<const core::Light>(s.lights.span()), s.background, s.max_depth,
-                                            s.min_weight)),
+                                            s.min_weight, s.shadow_rays)),
         st_(s.scratch->stats) {}
 
   void run() {

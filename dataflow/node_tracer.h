@@ -54,6 +54,7 @@ struct NodeState {
   CameraFrame frame;
   int spp = 1, max_depth = 5;
   float min_weight = 0;
+  core::ShadowRays shadow_rays = core::ShadowRays::kFacing;
   nodes::ArenaArray<core::Primitive> primitives;
   nodes::ArenaArray<core::TriangleNormals> vertex_normals;
   nodes::ArenaArray<core::Material> materials;

@@ -194,7 +194,8 @@ void run_node(NodeContext& ctx, NodeState& s, const control::PixelLayout& pixel_
               int item_w, int item_h) {
   Pager& pager = *s.pager;
   const core::ShadingContext shading = core::make_shading_context(
-      std::span<const core::Light>(s.lights.span()), s.background, s.render.max_depth, s.render.min_weight);
+      std::span<const core::Light>(s.lights.span()), s.background, s.render.max_depth, s.render.min_weight,
+        s.render.shadow_rays);
   ctx.set_work_meter(&NodeState::work_seconds, &s);
   const control::PixelJob job{shading, s.camera, s.render.spp, s.render.any_aov(), pixel_layout, *s.scratch, s.batch};
   // The pages each pixel touched (--aov pages), and the pager's end of a work item.

@@ -98,6 +98,30 @@ TEST_CASE("render: tetra (Ks = 0, T = 0) casts only primary and shadow rays and 
   CHECK(r.stats.traversal.cells_visited > 0u);
 }
 
+TEST_CASE("render: --shadow-rays all casts a shadow ray to every light, facing or not, and draws the same image") {
+  // rings:1 has three lights, a mirror and cylinders lit from behind on one side: every kind of ray.
+  for (const char* spec : {"rings:1", "teapot:2"}) {
+    CAPTURE(spec);
+    const Scene scene = load_scene({spec, 0});
+    const Database db = make_database(scene);
+    const Grid grid = build_grid(db);
+    RenderParams p;
+    p.width = p.height = 40;
+    const RenderResult facing = render(db, grid, p);
+    p.shadow_rays = ShadowRays::kAll;
+    const RenderResult all = render(db, grid, p);
+    REQUIRE(facing.stats.skipped.shadow_backfacing > 0u);  // the scene has lights behind some surfaces
+    CHECK(all.stats.skipped.shadow_backfacing == 0u);
+    CHECK(all.stats.rays.shadow == facing.stats.rays.shadow + facing.stats.skipped.shadow_backfacing);
+    CHECK(all.stats.rays.primary == facing.stats.rays.primary);
+    CHECK(all.stats.rays.reflected == facing.stats.rays.reflected);
+    CHECK(all.stats.rays.refracted == facing.stats.rays.refracted);
+    CHECK(all.stats.skipped.highlight_marker == facing.stats.skipped.highlight_marker);
+    CHECK(all.stats.traversal.rays > facing.stats.traversal.rays);  // the extra rays were traced
+    CHECK(same_bits(all.color, facing.color));
+  }
+}
+
 TEST_CASE("render: a mirror (Ks > 0) casts reflected rays, max depth and min weight stop them") {
   Scene s = looking_down(5.0f);
   Material mirror;
