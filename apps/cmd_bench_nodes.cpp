@@ -149,6 +149,7 @@ nlohmann::json bench_row(std::FILE* report, std::uint32_t n, const NodeRun& best
     row["grants"] = best.grants.value_or(0);
     row["miss_ratio"] = best.miss_ratio.value_or(-1);
     row["pages_per_pixel"] = best.pages_per_pixel.value_or(-1);
+    if (best.database_bytes) row["database_bytes"] = *best.database_bytes;  // svm: the shared memory's size
   }
   if (ipsc2_scale > 0) row["ipsc2_time_s"] = tp / ipsc2_scale;
   if (balanced) {
@@ -222,6 +223,10 @@ void run_bench_nodes(const NodesBenchOptions& o) {
                           {"submaps", o.run.submaps},     {"work_grants", o.run.work_grants},
                           {"work_requests", o.run.work_requests}, {"pack_cells", o.pack_min},
                           {"grid", grid_json(grid)},
+                          {"primitives", db.primitives.size()},
+                          {"vertex_normal_sets", db.vertex_normals.size()},
+                          {"node_memory", o.run.node_memory},
+                          {"shadow_rays", o.run.shadow_rays},
                           {"sequential_s", sequential_s}, {"sequential_cpu_s", sequential_cpu_s},
                           {"one_node_over_sequential",
                            one_node_ratio ? nlohmann::json(*one_node_ratio) : nlohmann::json()},

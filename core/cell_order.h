@@ -10,7 +10,7 @@
 // in linear order. A ray then crosses a new directory page every few cells
 // on any axis, not at nearly every step across rows; a node whose rays
 // sweep a frustum fetches the bricks it meets instead of every row it
-// crosses (docs/results.md, "A bricked cell directory").
+// crosses (docs/architecture.md, "svm").
 //
 // The key is separable, key(x, y, z) = K_x[x] + K_y[y] + K_z[z], with
 //   K_x[x] = (x / dims[0]) * brick_stride[0] + x % dims[0]

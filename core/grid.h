@@ -58,8 +58,8 @@
 // more references in the sub-grid than in the leaf; without it, shells:5's
 // overlapping spheres grew 5,761 primitives into 2.45 M references in 45
 // sub-grids, 1.34 M in 14 now, at 0.95-1.0x the rays/s). The defaults
-// were chosen with `raynode bench accel` (docs/results.md, "Adaptive
-// grid"): a coarser top grid (lambda_top 1/16, n_min 8, Kalojanov's shape)
+// were chosen with `raynode bench accel` (docs/architecture.md, "Scenes",
+// Grid): a coarser top grid (lambda_top 1/16, n_min 8, Kalojanov's shape)
 // won a little more on a mesh in a stadium but cost 2-3x on the paper's
 // evenly filled scenes, where every top cell's sub-walk setup is paid.
 //

@@ -82,7 +82,7 @@ namespace raynode::svm {
 /// it wherever its rays go. A one-primitive cell needs no list access.
 /// Empty cells, most of the cells a ray visits, have the tag 0: the view's
 /// first compare (entry < kSingleCell) finds one, and the entry is the
-/// distance it returns (docs/results.md, "One node, seventh pass").
+/// distance it returns.
 using DirectoryEntry = std::uint32_t;
 inline constexpr std::uint32_t kEmptyCell = 0;
 inline constexpr std::uint32_t kSingleCell = 1u << 30;

@@ -158,7 +158,7 @@ class Pager {
   /// the entry. Otherwise the entry takes the pixel's
   /// stamp and a home page's first touch is counted without a branch: that
   /// branch would follow the pixel's path through the scene and be
-  /// mispredicted often (docs/results.md, "One node, fifth pass"). The list
+  /// mispredicted often (docs/architecture.md, "svm"). The list
   /// updates the pages' LRU recency at the pixel's end or at the next
   /// fault (flush_recency), before any victim is chosen, so evictions are
   /// those of an LRU updated at each first touch. While the cache has free
