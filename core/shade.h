@@ -264,7 +264,7 @@ void shade_hit(const ShadingContext& ctx, const Material& m, const SurfaceFrame&
     if (!(dist > 0.0f)) continue;
     const Vec3 l = to_light * (1.0f / dist);
     const float ndotl = dot(ns, l);
-    const bool facing = ndotl > 0.0f;
+    const bool facing = !(ndotl <= 0.0f);  // only a light clearly behind (not a NaN term) is skipped
     if (!facing && ctx.shadow_rays == ShadowRays::kFacing) {
       ++st.skipped.shadow_backfacing;
       continue;

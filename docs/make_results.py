@@ -92,7 +92,9 @@ class Sources:
         """One line: the command, the machine and the node memory behind results/NAME."""
         s = self.other[name]
         memory = "" if s["node_memory"] == "-" else f"; nodes of {s['node_memory']}"
-        return f"`{s['command']}` on a {s['machine']}{memory}; rows in {link(name)}."
+        command, _, note = s["command"].partition(" (")
+        note = f" ({note}" if note else ""
+        return f"`{command}`{note} on a {s['machine']}{memory}; rows in {link(name)}."
 
 
 def read_tsv_pairs(path):
@@ -147,6 +149,7 @@ def section_table2(src, paper):
     rows = []
     size_ratios = []
     ray_ratios = {}
+    ray_diffs = {}
     primitives = {}
     counts = []
     per_polygon = {d: float(p["shared_memory_kib"]) * 1024 / float(p["polygons"]) for d, p in paper.items()}
@@ -157,18 +160,20 @@ def section_table2(src, paper):
         kib = last["database_bytes"] / 1024
         size_ratios.append(kib / float(p["shared_memory_kib"]))
         ray_ratios[database] = last["rays"] / float(p["rays"])
+        ray_diffs[database] = last["rays"] - int(p["rays"])
         primitives[database] = doc["primitives"]
         counts.append((doc["grid"]["leaf_cells"], doc["grid"]["references"], doc["primitives"],
                        doc["vertex_normal_sets"], float(p["shared_memory_kib"])))
-        rows.append([database, f"`{doc['scene']}`", f"{thousands(float(p['polygons']))} / {thousands(doc['primitives'])}",
+        rows.append([database, f"`{p['scene']}`", f"{thousands(float(p['polygons']))} / {thousands(doc['primitives'])}",
                      f"{thousands(float(p['rays']))} / {thousands(last['rays'])} ({pct(ray_ratios[database])})",
                      f"{thousands(float(p['shared_memory_kib']))} / {thousands(kib)} ({kib / float(p['shared_memory_kib']):.2f}x)",
                      f"{float(p['pages_per_pixel']):.2f} / {last['pages_per_pixel']:.2f}", max(by_nodes)])
     fit = best_record_sizes(counts)
+    size = f"{doc['width']}x{doc['height']}"
     text = [
         "## Table 2: database characteristics",
         "",
-        "From the runs of Table 3 below (`bench nodes`, svm, `--machine ipsc2 --shadow-rays all`, 512x512): "
+        f"From the runs of Table 3 below (`bench nodes`, svm, `--machine ipsc2 --shadow-rays all`, {size}): "
         "primitives of the database, rays cast, the shared virtual memory's size and the distinct pages a "
         "pixel touches, read from the run with the most nodes. Each cell is the paper's figure, then raynode's.",
         "",
@@ -176,8 +181,8 @@ def section_table2(src, paper):
         "",
         "- **Rays.** With `--shadow-rays all` a hit casts a shadow ray to every light, also to one behind "
         "the surface, which adds nothing to the pixel. The paper's counts for the two diffuse one-light "
-        f"databases are then matched: Tetra9 {pct(ray_ratios['Tetra9'], 2)}, Tetra10 {pct(ray_ratios['Tetra10'], 2)} "
-        "of the paper's. With the default (`facing`) these rays are skipped. The reflective databases stay "
+        f"databases are then matched to a few rays: Tetra9 {ray_diffs['Tetra9']:+d}, Tetra10 {ray_diffs['Tetra10']:+d} "
+        "against the paper's. With the default (`facing`) these rays are skipped. The reflective databases stay "
         f"below: Mountain {pct(ray_ratios['Mountain'])}, Rings4 {pct(ray_ratios['Rings4'])}, Teapot "
         f"{pct(ray_ratios['Teapot'])} (the SPD teapot at size 8 has {thousands(primitives['Teapot'])} primitives "
         f"against the paper's {thousands(float(paper['Teapot']['polygons']))}, so it is not the paper's model). "
@@ -188,7 +193,7 @@ def section_table2(src, paper):
         "the paper implies ranges from "
         f"{min(per_polygon.values()):.0f} bytes ({min(per_polygon, key=per_polygon.get)}) to "
         f"{max(per_polygon.values()):.0f} ({max(per_polygon, key=per_polygon.get)}), while raynode's cells and references "
-        "per primitive are about the same on every database. The record sizes that come closest over "
+        "per primitive are about the same on every database. Even freely chosen record sizes miss: the closest over "
         f"raynode's grids ({fit[1][0]}-byte cell entries, {fit[1][1]}-byte list entries, {fit[1][2]}-byte "
         f"primitives, {fit[1][3]}-byte vertex normals) still miss one database by {pct(fit[0], 0)}.",
     ]
@@ -230,6 +235,7 @@ def section_table3(src, paper):
                          f"{hms(by_nodes[n]['ipsc2_time_s'])} / {hms(pn) if pn else '-'}"])
     worst = max(gaps)
     least = min(gaps)
+    widest = max(gaps, key=lambda g: abs(g[0]))
     losses = [100 * (1 - seconds_of(p["time_1"]) / (2 * seconds_of(p["time_2"]))) for p in paper.values() if p["time_1"]]
     paper_loss_2 = (min(losses), max(losses))
     teapot, _ = bench("table3-teapot.json")
@@ -238,7 +244,7 @@ def section_table3(src, paper):
         "",
         "`" + src.paper_command("table3-teapot.json") + "`, and the same for each database "
         f"({', '.join(link('paper/' + n) for _, n in PAPER_SCENES)}). The machine: {src.machine()}. "
-        f"Nodes of {teapot['node_memory']}. "
+        f"Nodes of {teapot['node_memory'].replace('MiB', ' MiB')}. "
         "T_p is the latest end of work over the nodes in virtual time; efficiency = T_1 / (N T_p), with "
         "the paper's computed the same way from its Table 3 times. The iPSC/2 time is T_p over the "
         "network's scale (this host's seconds per ray over the iPSC/2's). Each cell is raynode's figure, "
@@ -246,8 +252,8 @@ def section_table3(src, paper):
         "",
         table(["database", "nodes", "efficiency", "efficiency vs 2 nodes", "iPSC/2 time (h:m:s)"], rows),
         "",
-        f"- raynode is above the paper at every node count: by {least[0]:.1f} to {worst[0]:.1f} points "
-        f"(the most: {worst[1]} at {worst[2]} nodes; Rings4 relative to 2 nodes). The paper loses "
+        f"- raynode's efficiency minus the paper's: {least[0]:+.1f} to {worst[0]:+.1f} points (the widest gap: "
+        f"{widest[1]} at {widest[2]} nodes, {widest[0]:+.1f}; Rings4 relative to 2 nodes). The paper loses "
         f"{paper_loss_2[0]:.1f}-{paper_loss_2[1]:.1f} points already at 2 nodes, where each node faults each remote page about once; no communication cost of "
         "the documented size accounts for that (docs/architecture.md, \"The iPSC/2 preset\").",
         "- Tetra9 and Tetra10 need 16 and 64 nodes of 4 MiB to hold their shared memory, as on the iPSC/2, "
@@ -294,20 +300,27 @@ def section_figures(src):
         peak_line = (f"- **Peak.** Rings4's page traffic peaks at {rings_peak} pages ({rings_rate / 1e3:.0f} KB/s per "
                      f"node), against {fig['fig10_peak_cache_pages']:.0f} pages and about "
                      f"{fig['fig10_peak_rate_bytes_per_s'] / 1e6:.2f} MB/s in the paper.")
+    def half_way(rows):
+        above = [r for r in rows if float(r["efficiency"]) >= 0.5]
+        return (f"from {thousands(float(above[0]['cache_pages']))} pages ({float(above[0]['cache_percent']):.1f}% of "
+                "its database)") if above else "at no cache size"
+    tetra_rows = peaks["Tetra9"][2]
     text += [
-        "- Efficiency rises with the cache and Rings4, with the most pages per pixel, needs the larger cache to "
-        "pass 50%, as in the paper. Tetra9's 4 MiB nodes hold a cache of a small part of its database only, so "
-        "its curve stops early; it is flat once its cold misses dominate.",
+        f"- Efficiency passes 50% for Rings4 {half_way(rings_rows)}, for Tetra9 {half_way(tetra_rows)}; the paper's "
+        "Rings4, with the most pages per pixel, needs the larger cache to keep above 50%. Tetra9's 4 MiB nodes "
+        f"hold a cache of at most {float(tetra_rows[-1]['cache_percent']):.1f}% of its database, so its curve stops "
+        "there, as the paper's does.",
         peak_line,
     ]
     return "\n".join(text)
 
 
 def section_sensitivity(src):
+    first = read_csv(os.path.join(RESULTS, "ipsc2-sensitivity-teapot8-64.csv"))[0]
     text = [
         "## How sensitive the iPSC/2 preset is to the costs no source gives",
         "",
-        "svm efficiency at 64 nodes, 512x512, with the sender's CPU time per message, the home node's service "
+        f"svm efficiency at {first['nodes']} nodes, {first['width']}x{first['width']}, with the sender's CPU time per message, the home node's service "
         "time and link contention varied around the preset (0.35 ms, 0.1 ms, on).",
         "",
     ]
@@ -329,6 +342,7 @@ def section_sensitivity(src):
 def section_contention(src):
     names = ["fig10-rings4t1-128-free-links.csv", "fig10-rings4t1-128-ipsc2-run1.csv", "fig10-rings4t1-128-ipsc2-run2.csv"]
     runs = [[r for r in read_csv(os.path.join(RESULTS, n)) if r["role"] == "point"] for n in names]
+    first = runs[0][0]
     body = []
     for i, r in enumerate(runs[0]):
         cells = [f"{pct(float(run[i]['efficiency']))} ({float(run[i]['ipsc2_rate_per_node_bytes_per_s']) / 1e3:.0f} KB/s)"
@@ -337,7 +351,7 @@ def section_contention(src):
     return "\n".join([
         "## Link contention at small caches",
         "",
-        "Rings4 on 32 nodes at 128x128, free links against the preset's contention, twice: "
+        f"Rings4 on {first['nodes']} nodes at {first['width']}x{first['height']}, free links against the preset's contention, twice: "
         + " ".join(src.describe(n) for n in names),
         "",
         table(["cache", "pages", "free links", "contention, run 1", "contention, run 2"], body),
