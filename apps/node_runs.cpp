@@ -77,10 +77,11 @@ void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) 
       ->capture_default_str();
   c.add_option("--work-grants", o.work_grants,
                "replicated, svm: what a busy node grants a work request: item (the paper: one work item from the "
-               "far end of its submap), nearest (one work item, the one nearest the requester's last) or half (the "
+               "far end of its submap), nearest (one work item, the one nearest the requester's last), half (the "
                "far half of its remaining item rows as one rectangle that the requester renders as its new "
-               "submap: a requester's pixels stay together, so svm's pages serve more of them)")
-      ->check(CLI::IsMember({"item", "nearest", "half"}))
+               "submap: a requester's pixels stay together, so svm's pages serve more of them) or auto (item in "
+               "the emulator; half on MPI ranks, where every grant is a real round trip)")
+      ->check(CLI::IsMember({"auto", "item", "nearest", "half"}))
       ->capture_default_str();
   c.add_option("--submaps", o.submaps,
                "replicated, svm: the nodes' static submaps: square (the paper: near-square parts of equal area) or "
@@ -203,7 +204,7 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
     m.topology = nodes::parse_topology(o.topology);
     m.clock = nodes::parse_compute_clock(o.clock);
     m.work_request_route = nodes::parse_work_request_route(o.work_requests);
-    m.work_grant = nodes::parse_work_grant(o.work_grants);
+    m.work_grant = nodes::parse_work_grant(o.work_grants == "auto" ? "item" : o.work_grants);
     s.submaps.rule = control::parse_submap_rule(o.submaps);
   } catch (const std::invalid_argument& e) {
     throw UsageError(std::string("--topology/--clock/--work-requests/--work-grants/--submaps: ") + e.what());

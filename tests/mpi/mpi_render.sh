@@ -37,6 +37,10 @@ for np in 1 2 3 4; do
     [ -s "$out" ] || { echo "FAIL: -np $np --mode $mode wrote no image"; fail=1; continue; }
     grep -q '"transport": "mpi"' "$mode$np.json" || { echo "FAIL: $mode$np.json does not name the mpi transport"; fail=1; }
     # Pages fetched by request, or read one-sidedly without a request.
+    # On ranks, work grants default to half a submap (one real round trip each).
+    if [ "$mode" != dataflow ] && ! grep -q '"work_grants": "half"' "$mode$np.json"; then
+      echo "FAIL: $mode on $np ranks: work grants are not half by default"; fail=1
+    fi
     if [ "$np" -gt 1 ] && [ "$mode" = svm ] && ! grep -q '"page_requests": [1-9]' "$mode$np.json"; then
       echo "FAIL: -np $np svm sent no page request"; fail=1
     fi
