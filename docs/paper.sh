@@ -56,6 +56,7 @@ run fig8-tetra9.csv sweep cache tetra:9 "${machine[@]}" --nodes 32 --quiet \
   printf 'date\t%s\n' "$(date -u +%Y-%m-%d)"
 } > "$out/host.tsv"
 mv "$commands.tmp" "$commands"
+rm -f "$out"/*.plot.py  # the sweeps' plotting scripts: their PNGs are what the page shows
 if [ "$out" = docs/results/paper ]; then
   python3 docs/make_results.py
 else
