@@ -199,7 +199,7 @@ core::RenderParams render_params(const RenderOptions& o, bool& node_aov, bool& p
   params.spp = o.spp;
   params.max_depth = o.max_depth;
   params.min_weight = o.min_weight;
-  params.shadow_rays = o.shadow_rays == "all" ? core::ShadowRays::kAll : core::ShadowRays::kFacing;
+  params.shadow_rays = shadow_rays_from_name(o.shadow_rays);
   node_aov = pages_aov = false;
   for (const std::string& a : o.aovs) {
     if (a == "node") node_aov = true;

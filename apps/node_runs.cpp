@@ -193,7 +193,7 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
   NodeRunSpec s;
   s.render.width = o.width;
   s.render.height = o.height;
-  s.render.shadow_rays = o.shadow_rays == "all" ? core::ShadowRays::kAll : core::ShadowRays::kFacing;
+  s.render.shadow_rays = shadow_rays_from_name(o.shadow_rays);
   nodes::MachineParams& m = s.machine;
   try {
     m.node_memory = nodes::parse_bytes(o.node_memory);

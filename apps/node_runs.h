@@ -97,12 +97,17 @@ struct NodeRunOptions {
   std::uint32_t send_queue = 0;         ///< sending queue slots; 0 = the node memory left (the paper's rule)
 };
 
-/// Which options add_node_run_options adds besides the machine's.
 /// --shadow-rays' help, for render and the node commands.
 inline constexpr const char* kShadowRaysHelp =
     "Lights a hit casts shadow rays to: facing (those the surface faces; a light behind adds nothing) or all "
     "(every light, as the paper's tracer counted its rays: the same image, more rays)";
 
+/// --shadow-rays' word (checked by the CLI): kAll for "all", else kFacing.
+inline core::ShadowRays shadow_rays_from_name(const std::string& word) {
+  return word == "all" ? core::ShadowRays::kAll : core::ShadowRays::kFacing;
+}
+
+/// Which options add_node_run_options adds besides the machine's.
 struct NodeRunOptionSet {
   bool experiment = true;  ///< --width, --height, --grid, --skip-empty, --timeout (per run), --repeat
   bool page_size = true;   ///< --page-size, --directory-order (svm)
