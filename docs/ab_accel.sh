@@ -1,14 +1,17 @@
 #!/bin/bash
 # A/B of grid walk and build between raynode builds, as quoted in
-# docs/results.md ("Grid build and walk against Embree ..."):
+# docs/results.md ("The grid against Embree"):
 #
 #   docs/ab_accel.sh DIR OUT.txt
 #
 # DIR holds the builds as raynode_NAME and the scene files the builds read
 # (tree_11.nff.gz, sombrero_1.nff.gz, gears_4.nff.gz, lattice_12.nff.gz,
-# shells_5.nff.gz: `raynode scene write NAME:SIZE -o FILE`; scan_room.nff.gz,
-# teapot8_floor1000.nff.gz, tetra8_floor1000.nff.gz: the recipes in
-# results.md). One job per physical core (its first hardware thread), eight
+# shells_5.nff.gz: `raynode scene write NAME:SIZE -o FILE`; scan_room.nff.gz:
+# a 39,200-triangle displaced sphere on a floor beside a mirror wall;
+# teapot8_floor1000.nff.gz, tetra8_floor1000.nff.gz: `raynode scene write
+# teapot:8` (or tetra:8) with one square floor polygon appended just below
+# the model, 1000x its width: `p 4` at z = -0.01 for the teapot, -1.01 for
+# Tetra, half-widths 4000 and 1000). One job per physical core (its first hardware thread), eight
 # at once, two scenes per job, five alternated rounds of `bench accel SCENE
 # --repeat 3 --width 256 --height 256 --json`; each line of OUT is
 # NAME|ROUND|SCENE|JSON. A build named `old` skips the 1000x-floor scenes
