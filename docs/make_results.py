@@ -177,7 +177,7 @@ def section_table2(src, paper):
         "primitives of the database, rays cast, the shared virtual memory's size and the distinct pages a "
         "pixel touches, read from the run with the most nodes. Each cell is the paper's figure, then raynode's.",
         "",
-        table(["database", "scene", "polygons", "rays", "shared memory (KiB)", "pages per pixel", "nodes"], rows),
+        table(["database", "scene", "polygons / primitives", "rays", "shared memory (KiB)", "pages per pixel", "nodes"], rows),
         "",
         "- **Rays.** With `--shadow-rays all` a hit casts a shadow ray to every light, also to one behind "
         "the surface, which adds nothing to the pixel. The paper's counts for the two diffuse one-light "
