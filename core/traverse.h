@@ -130,22 +130,20 @@ struct TraversalScratch {
 
 namespace detail {
 
-/// Sphere or cone test (not a triangle); on a hit closer than hit.t,
-/// updates `hit`. Kept out of line so that the per-primitive loop, which
-/// inlines only the triangle test, stays small.
-[[gnu::noinline]] inline bool intersect_curved(const Primitive& p, std::uint32_t id, const Ray& ray, Hit& hit,
-                                               TraversalStats& stats) {
+/// Sphere or cone test (not a triangle): the hit's t when one lies in
+/// (ray.tmin, t_max), else +inf (a hit's t is below t_max, so never +inf). Kept out of line so that the
+/// per-primitive loop, which inlines only the triangle test, stays small;
+/// it takes and returns values, so that the caller's hit and counters, to
+/// which it has no reference, stay in registers.
+[[gnu::noinline]] inline float intersect_curved(const Primitive& p, const Ray& ray, float t_max) {
   float t;
   if (p.kind == PrimitiveKind::kSphere) {
-    ++stats.sphere_tests;
-    if (!intersect_sphere(ray, p.center(), p.radius(), hit.t, t)) return false;
-  } else {
-    ++stats.cone_tests;
-    if (!intersect_cone(ray, p.cone_base(), p.cone_base_radius(), p.cone_apex(), p.cone_apex_radius(), hit.t, t))
-      return false;
+    if (!intersect_sphere(ray, p.center(), p.radius(), t_max, t)) return kInfinity;
+  } else if (!intersect_cone(ray, p.cone_base(), p.cone_base_radius(), p.cone_apex(), p.cone_apex_radius(), t_max,
+                             t)) {
+    return kInfinity;
   }
-  hit = Hit{t, id, 0, 0};
-  return true;
+  return t;
 }
 
 /// intersect_primitive with the triangle test's axis permutation fixed at
@@ -155,8 +153,13 @@ template <int KX, int KY, int KZ>
 [[gnu::always_inline]] inline bool intersect_primitive_axes(const Primitive& p, std::uint32_t id, const Ray& ray,
                                                             const WatertightRay& w, const TriangleRayLanes& lanes,
                                                             Hit& hit, TraversalStats& stats) {
-  if (p.kind != PrimitiveKind::kTriangle) [[unlikely]]
-    return intersect_curved(p, id, ray, hit, stats);
+  if (p.kind != PrimitiveKind::kTriangle) [[unlikely]] {
+    ++(p.kind == PrimitiveKind::kSphere ? stats.sphere_tests : stats.cone_tests);
+    const float t = intersect_curved(p, ray, hit.t);
+    if (t == kInfinity) return false;  // a hit lies below t_max, never at +inf
+    hit = Hit{t, id, 0, 0};
+    return true;
+  }
   ++stats.triangle_tests;
   TriangleHit th;
   if (!intersect_triangle_record_axes<KX, KY, KZ>(ray, w, lanes, p.data, hit.t, th)) return false;
@@ -414,12 +417,21 @@ concept has_paged_sub_grids = requires(const View& v, std::uint32_t i) {
 
 namespace detail {
 
+/// What a walk below one grid of an adaptive hierarchy hands back: the
+/// visitor, with its state as the walk left it, and whether visit stopped
+/// the walk.
+template <class Visit>
+struct SubWalk {
+  Visit visit;
+  bool stopped;
+};
+
 /// walk_cells below one grid of a paged adaptive hierarchy: visit's
-/// kSubGridCode + j for a cell descends into sub-grid j. Returns false
-/// once visit stopped the walk.
+/// kSubGridCode + j for a cell descends into sub-grid j. The visitor comes
+/// in and goes back by value (see walk_cells).
 template <class View, class Visit>
-[[gnu::noinline]] bool walk_paged_sub_grid(const View& view, std::uint32_t index, const Ray& ray, const Vec3& inv_v,
-                                           Visit& visit) {
+[[gnu::noinline, gnu::flatten]] SubWalk<Visit> walk_paged_sub_grid(const View& view, std::uint32_t index,
+                                                                   const Ray& ray, const Vec3& inv_v, Visit visit) {
   const SubGrid g = view.sub_grid(index);
   bool stopped = false;
   walk_grid(g.info, LinearCellOrder{}, ray, inv_v, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
@@ -430,35 +442,37 @@ template <class View, class Visit>
     }
     if (d < kSubGridCode) [[likely]]
       return d;
-    if (walk_paged_sub_grid(view, d - kSubGridCode, ray, inv_v, visit)) return 0;
-    stopped = true;
-    return kStopWalk;
+    SubWalk<Visit> below = walk_paged_sub_grid(view, d - kSubGridCode, ray, inv_v, visit);
+    visit = below.visit;
+    stopped = below.stopped;
+    return stopped ? kStopWalk : 0;
   });
-  return !stopped;
+  return {visit, stopped};
 }
 
 /// walk_cells below one grid of an adaptive hierarchy: walk_grid over
 /// sub_grids[index]; a cell holding a sub-grid is walked in turn (its
 /// bounds are the cell's box, so the inner walk covers the ray's piece in
-/// that cell). Returns false once visit stopped the walk.
+/// that cell). The visitor comes in and goes back by value (see walk_cells).
 template <class Visit>
-[[gnu::noinline]] bool walk_sub_grid(const SubGridTables& t, std::uint32_t index, const Ray& ray, const Vec3& inv_v,
-                                     Visit& visit) {
+[[gnu::noinline, gnu::flatten]] SubWalk<Visit> walk_sub_grid(const SubGridTables& t, std::uint32_t index,
+                                                             const Ray& ray, const Vec3& inv_v, Visit visit) {
   const SubGrid& g = t.sub_grids[index];
   const std::uint32_t* entries = t.cell_entries.data() + g.first_entry;
   bool stopped = false;
   walk_grid(g.info, LinearCellOrder{}, ray, inv_v, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
     const std::uint32_t e = entries[cell];
     if (e & kSubGridEntry) [[unlikely]] {
-      if (walk_sub_grid(t, e & ~kSubGridEntry, ray, inv_v, visit)) return 0;
-      stopped = true;
-      return kStopWalk;
+      SubWalk<Visit> below = walk_sub_grid(t, e & ~kSubGridEntry, ray, inv_v, visit);
+      visit = below.visit;
+      stopped = below.stopped;
+      return stopped ? kStopWalk : 0;
     }
     const std::uint32_t d = visit(e, t_exit);
     stopped = d == kStopWalk;
     return d;
   });
-  return !stopped;
+  return {visit, stopped};
 }
 
 }  // namespace detail
@@ -471,8 +485,15 @@ template <class Visit>
 /// determinism and empty-space jumps. A leaf's t_exit is its own exit, so
 /// the closest-hit early exit keeps its meaning; visit's kStopWalk ends
 /// every level. The mailbox dedups primitives listed at several levels.
+///
+/// `visit` is a copyable object (not a lambda: it is assigned to): a walk
+/// below the top grid, which is out of line, takes a copy and hands it
+/// back, which is assigned to `visit`. So the visitor's address never
+/// leaves the caller, and its state (the hit, counters, mailbox stamp)
+/// stays in registers through the top grid's walk; a reference handed to
+/// the out-of-line walk would keep it in memory for the whole walk.
 template <class View, class Visit>
-inline void walk_cells(const View& view, const Ray& ray, Visit&& visit) {
+inline void walk_cells(const View& view, const Ray& ray, Visit& visit) {
   if constexpr (has_sub_grids<View>) {
     const SubGridTables t = view.sub_grid_tables();
     if (!t.sub_grids.empty()) {
@@ -485,8 +506,11 @@ inline void walk_cells(const View& view, const Ray& ray, Visit&& visit) {
       const std::uint32_t* entries = t.cell_entries.data();
       const std::uint64_t* bits = t.top_sub_grid_bits.data();
       walk_grid(t.sub_grids[0].info, LinearCellOrder{}, ray, inv_v, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
-        if ((bits[cell >> 6] >> (cell & 63)) & 1) [[unlikely]]
-          return detail::walk_sub_grid(t, entries[cell] & ~kSubGridEntry, ray, inv_v, visit) ? 0 : kStopWalk;
+        if ((bits[cell >> 6] >> (cell & 63)) & 1) [[unlikely]] {
+          const detail::SubWalk<Visit> below = detail::walk_sub_grid(t, entries[cell] & ~kSubGridEntry, ray, inv_v, visit);
+          visit = below.visit;
+          return below.stopped ? kStopWalk : 0;
+        }
         return visit(cell, t_exit);
       });
       return;
@@ -500,7 +524,9 @@ inline void walk_cells(const View& view, const Ray& ray, Visit&& visit) {
         const std::uint32_t d = visit(cell, t_exit);
         if (d == kStopWalk || d < kSubGridCode) [[likely]]
           return d;
-        return detail::walk_paged_sub_grid(view, d - kSubGridCode, ray, inv_v, visit) ? 0 : kStopWalk;
+        const detail::SubWalk<Visit> below = detail::walk_paged_sub_grid(view, d - kSubGridCode, ray, inv_v, visit);
+        visit = below.visit;
+        return below.stopped ? kStopWalk : 0;
       });
       return;
     }
@@ -510,34 +536,41 @@ inline void walk_cells(const View& view, const Ray& ray, Visit&& visit) {
 
 namespace detail {
 
-// The loops below keep the hit, the counters and the mailbox's stamp in
-// locals (written back once per ray): a store through `scratch` could alias
-// them and would force a reload per primitive.
+// The visitors below keep the hit, the counters and the mailbox's stamp in
+// their own members, which the compiler keeps in registers (walk_cells
+// never takes their address; they are written back once per ray): a store
+// through `scratch` could alias them and would force a reload per primitive.
+
+/// The cell visit of intersect_closest: tests a leaf's primitives, keeps
+/// the nearest hit, and stops the walk once that hit lies within the leaf.
 template <int KX, int KY, int KZ, class View>
-[[gnu::flatten]] inline bool intersect_closest_axes(const View& view, const Ray& ray, const WatertightRay& w, Hit& hit_out,
-                                   TraversalScratch& scratch) {
-  TraversalStats stats;
-  const TriangleRayLanes lanes(ray, w);
-  Mailbox::Probe mailbox = scratch.mailbox.probe();
-  Hit hit = hit_out;
+struct ClosestVisit {
+  const View* view;
+  const Ray* ray;
+  const WatertightRay* w;
+  const TriangleRayLanes* lanes;
+  Mailbox::Probe mailbox;
+  Hit hit;
   bool found = false;
-  walk_cells(view, ray, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
+  TraversalStats stats{};
+
+  [[gnu::always_inline]] std::uint32_t operator()(std::uint32_t cell, float t_exit) {
     ++stats.cells_visited;
-    const auto listed = [&](std::uint32_t id) {
+    const auto listed = [&](std::uint32_t id) [[gnu::always_inline]] {
       if (mailbox.seen_or_insert(id)) {
         ++stats.mailbox_skips;
         return;
       }
-      found |= intersect_primitive_axes<KX, KY, KZ>(view.primitive(id), id, ray, w, lanes, hit, stats);
+      found |= intersect_primitive_axes<KX, KY, KZ>(view->primitive(id), id, *ray, *w, *lanes, hit, stats);
     };
     std::uint32_t empty;
     if constexpr (has_packed_cells<View>) {
-      empty = view.visit_cell(cell, listed, [&](const CellBlockSpan& cb) {
-        found |= intersect_cell_blocks<KX, KY, KZ, false>(cb, ray, w, hit.t, hit.u, hit.v, hit.primitive,
+      empty = view->visit_cell(cell, listed, [&](const CellBlockSpan& cb) [[gnu::always_inline]] {
+        found |= intersect_cell_blocks<KX, KY, KZ, false>(cb, *ray, *w, hit.t, hit.u, hit.v, hit.primitive,
                                                          stats.triangle_tests);
       });
     } else {
-      empty = view.for_each_in_cell(cell, listed);
+      empty = view->for_each_in_cell(cell, listed);
     }
     if constexpr (has_paged_sub_grids<View>) {
       if (empty >= kSubGridCode) [[unlikely]] {
@@ -548,39 +581,40 @@ template <int KX, int KY, int KZ, class View>
     if (found && hit.t <= t_exit) return kStopWalk;
     stats.empty_jumps += empty >= kMinJumpDistance;
     return empty;
-  });
-  scratch.stats += stats;
-  hit_out = hit;
-  return found;
-}
+  }
+};
 
+/// The cell visit of intersect_any: stops the walk at the first hit.
 template <int KX, int KY, int KZ, class View>
-[[gnu::flatten]] inline bool intersect_any_axes(const View& view, const Ray& ray, const WatertightRay& w, TraversalScratch& scratch) {
-  TraversalStats stats;
-  const TriangleRayLanes lanes(ray, w);
-  Mailbox::Probe mailbox = scratch.mailbox.probe();
-  bool found = false;
+struct AnyVisit {
+  const View* view;
+  const Ray* ray;
+  const WatertightRay* w;
+  const TriangleRayLanes* lanes;
+  Mailbox::Probe mailbox;
   Hit hit;
-  hit.t = ray.tmax;
-  walk_cells(view, ray, [&](std::uint32_t cell, float) -> std::uint32_t {
+  bool found = false;
+  TraversalStats stats{};
+
+  [[gnu::always_inline]] std::uint32_t operator()(std::uint32_t cell, float) {
     ++stats.cells_visited;
-    const auto listed = [&](std::uint32_t id) {
+    const auto listed = [&](std::uint32_t id) [[gnu::always_inline]] {
       if (found) return;
       if (mailbox.seen_or_insert(id)) {
         ++stats.mailbox_skips;
         return;
       }
-      found = intersect_primitive_axes<KX, KY, KZ>(view.primitive(id), id, ray, w, lanes, hit, stats);
+      found = intersect_primitive_axes<KX, KY, KZ>(view->primitive(id), id, *ray, *w, *lanes, hit, stats);
     };
     std::uint32_t empty;
     if constexpr (has_packed_cells<View>) {
-      empty = view.visit_cell(cell, listed, [&](const CellBlockSpan& cb) {
+      empty = view->visit_cell(cell, listed, [&](const CellBlockSpan& cb) [[gnu::always_inline]] {
         // (a paged view hands a cell over in pieces: one hit is enough)
-        found = found || intersect_cell_blocks<KX, KY, KZ, true>(cb, ray, w, hit.t, hit.u, hit.v, hit.primitive,
+        found = found || intersect_cell_blocks<KX, KY, KZ, true>(cb, *ray, *w, hit.t, hit.u, hit.v, hit.primitive,
                                                                  stats.triangle_tests);
       });
     } else {
-      empty = view.for_each_in_cell(cell, listed);
+      empty = view->for_each_in_cell(cell, listed);
     }
     if constexpr (has_paged_sub_grids<View>) {
       if (empty >= kSubGridCode) [[unlikely]] {
@@ -591,9 +625,29 @@ template <int KX, int KY, int KZ, class View>
     if (found) return kStopWalk;
     stats.empty_jumps += empty >= kMinJumpDistance;
     return empty;
-  });
-  scratch.stats += stats;
-  return found;
+  }
+};
+
+template <int KX, int KY, int KZ, class View>
+[[gnu::flatten]] inline bool intersect_closest_axes(const View& view, const Ray& ray, const WatertightRay& w, Hit& hit_out,
+                                   TraversalScratch& scratch) {
+  const TriangleRayLanes lanes(ray, w);
+  ClosestVisit<KX, KY, KZ, View> visit{&view, &ray, &w, &lanes, scratch.mailbox.probe(), hit_out};
+  walk_cells(view, ray, visit);
+  scratch.stats += visit.stats;
+  hit_out = visit.hit;
+  return visit.found;
+}
+
+template <int KX, int KY, int KZ, class View>
+[[gnu::flatten]] inline bool intersect_any_axes(const View& view, const Ray& ray, const WatertightRay& w, TraversalScratch& scratch) {
+  const TriangleRayLanes lanes(ray, w);
+  Hit hit;
+  hit.t = ray.tmax;
+  AnyVisit<KX, KY, KZ, View> visit{&view, &ray, &w, &lanes, scratch.mailbox.probe(), hit};
+  walk_cells(view, ray, visit);
+  scratch.stats += visit.stats;
+  return visit.found;
 }
 
 }  // namespace detail
