@@ -186,7 +186,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
   fmt::print(report, "{} {} {}x{}, network {}, node memory {}, clock {}, submaps {}, work grants {}, requests {}, {}, {} "
              "hardware threads, best of {}\n",
              o.mode, o.source.spec, o.run.width, o.run.height, o.run.network, o.run.node_memory, o.run.clock,
-             o.run.submaps, nodes::work_grant_name(spec.machine.work_grant), o.run.work_requests,
+             o.run.submaps, nodes::work_grant_name(nodes::resolved_work_grant(spec.machine)), o.run.work_requests,
              o.pack_min > 0 ? fmt::format("cells of {}+ triangles packed", o.pack_min) : std::string("object lists"),
              std::thread::hardware_concurrency(), o.run.repeat);
   const bool cpu_clock = o.run.clock == "cpu";  // else the node's time is modelled: no ratio to sequential's
@@ -220,7 +220,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
   auto json_doc = [&] {
     return nlohmann::json{{"scene", o.source.spec},       {"mode", o.mode},   {"network", o.run.network},
                           {"clock", o.run.clock},         {"width", o.run.width}, {"height", o.run.height},
-                          {"submaps", o.run.submaps},     {"work_grants", nodes::work_grant_name(spec.machine.work_grant)},
+                          {"submaps", o.run.submaps},     {"work_grants", nodes::work_grant_name(nodes::resolved_work_grant(spec.machine))},
                           {"work_requests", o.run.work_requests}, {"pack_cells", o.pack_min},
                           {"grid", grid_json(grid)},
                           {"primitives", db.primitives.size()},

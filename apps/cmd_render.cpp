@@ -84,9 +84,6 @@ NodeRunSpec node_spec(const RenderOptions& o) {
   spec.machine.nodes = std::uint32_t(o.nodes);
   spec.machine.timeout_s = 0;
   spec.machine.transport = o.transport_impl;
-  // On MPI ranks a work grant costs a real round trip, whose wait depends on
-  // how often the granting node takes its mail: fewer, larger grants.
-  if (o.transport_impl && o.run.work_grants == "auto") spec.machine.work_grant = nodes::WorkGrant::kHalf;
   return spec;
 }
 

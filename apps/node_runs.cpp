@@ -204,7 +204,7 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
     m.topology = nodes::parse_topology(o.topology);
     m.clock = nodes::parse_compute_clock(o.clock);
     m.work_request_route = nodes::parse_work_request_route(o.work_requests);
-    m.work_grant = nodes::parse_work_grant(o.work_grants == "auto" ? "item" : o.work_grants);
+    m.work_grant = nodes::parse_work_grant(o.work_grants);
     s.submaps.rule = control::parse_submap_rule(o.submaps);
   } catch (const std::invalid_argument& e) {
     throw UsageError(std::string("--topology/--clock/--work-requests/--work-grants/--submaps: ") + e.what());

@@ -78,7 +78,7 @@ struct NodeRunOptions {
   std::string calibrate = "auto";       ///< model clock: auto, on or off (calibrate_model_clock)
   std::string work_requests = "ring";   ///< ring, last-grantor or off (nodes::WorkRequestRoute)
   /// auto, item, nearest or half (nodes::WorkGrant): auto is item in the
-  /// emulator (the paper's) and half on MPI ranks (render's node_spec).
+  /// emulator (the paper's) and half on MPI ranks (nodes::resolved_work_grant).
   std::string work_grants = "auto";
   std::string submaps = "square";       ///< square or balanced (control::SubmapRule)
   double stall_timeout_s = 60;          ///< wall seconds without a message before a run stops; 0 = never

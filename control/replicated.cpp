@@ -79,7 +79,7 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
   const SubmapPlan plan = plan_submaps(db, grid, frame.camera, rp, m.nodes, params.submaps, m.cost_model);
   const std::vector<Rect>& submaps = plan.rects;
   const std::size_t fixed = Mailbox::bytes_for(m.mailbox_capacity, m.max_payload) + m.max_payload + PixelBatch::bytes(m.max_payload) +
-                            sizeof(core::ShadingScratch) + work_farm_bytes(m.work_grant, submaps, params.item_w, params.item_h);
+                            sizeof(core::ShadingScratch) + work_farm_bytes(resolved_work_grant(m), submaps, params.item_w, params.item_h);
   if (copy_bytes + fixed > m.node_memory)
     throw DoesNotFit(fmt::format("replicated mode: the database needs {} per node ({} B, plus {} for the mailbox "
                                  "and buffers), --node-memory is {} ({} B)",

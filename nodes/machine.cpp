@@ -86,6 +86,7 @@ Machine::Machine(const MachineParams& params) : params_(params) {
   if (params_.node_memory == 0) throw std::invalid_argument("--node-memory must be > 0");
   if (params_.max_payload == 0) throw std::invalid_argument("message payload limit must be > 0");
   if (params_.mailbox_capacity == 0) params_.mailbox_capacity = 2 * params_.nodes + 32;
+  params_.work_grant = resolved_work_grant(params_);
   if (Transport* t = params_.transport) {
     if (params_.nodes != t->processes())
       throw std::invalid_argument(fmt::format("the {} transport runs one node per process: {} processes, {} nodes",
@@ -505,13 +506,20 @@ WorkGrant parse_work_grant(const std::string& text) {
   if (text == "item") return WorkGrant::kItem;
   if (text == "half") return WorkGrant::kHalf;
   if (text == "nearest") return WorkGrant::kNearest;
-  throw std::invalid_argument("work grants are item, nearest or half, got '" + text + "'");
+  if (text == "auto") return WorkGrant::kAuto;
+  throw std::invalid_argument("work grants are auto, item, nearest or half, got '" + text + "'");
+}
+
+WorkGrant resolved_work_grant(const MachineParams& params) {
+  if (params.work_grant != WorkGrant::kAuto) return params.work_grant;
+  return params.transport ? WorkGrant::kHalf : WorkGrant::kItem;
 }
 
 const char* work_grant_name(WorkGrant g) {
   switch (g) {
     case WorkGrant::kHalf: return "half";
     case WorkGrant::kNearest: return "nearest";
+    case WorkGrant::kAuto: return "auto";
     case WorkGrant::kItem: break;
   }
   return "item";

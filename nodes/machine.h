@@ -73,8 +73,9 @@ struct MachineParams {
   std::optional<bool> scheduled_mail;
   /// Where idle nodes send work requests (work.h; `--work-requests`).
   WorkRequestRoute work_request_route = WorkRequestRoute::kRing;
-  /// What a busy node grants a work request (work.h; `--work-grants`).
-  WorkGrant work_grant = WorkGrant::kItem;
+  /// What a busy node grants a work request (work.h; `--work-grants`);
+  /// kAuto is resolved by the Machine (resolved_work_grant).
+  WorkGrant work_grant = WorkGrant::kAuto;
   /// What advances a node's clock while it computes (node.h, "Virtual time").
   ComputeClock clock = ComputeClock::kCpu;
   /// The unit costs the modes' work meters use under ComputeClock::kModel.
@@ -214,10 +215,13 @@ const char* compute_clock_name(ComputeClock c);
 WorkRequestRoute parse_work_request_route(const std::string& text);
 /// "ring", "last-grantor" or "off".
 const char* work_request_route_name(WorkRequestRoute r);
-/// "item", "nearest" or "half" (--work-grants). Throws std::invalid_argument naming the text.
+/// "auto", "item", "nearest" or "half" (--work-grants). Throws std::invalid_argument naming the text.
 WorkGrant parse_work_grant(const std::string& text);
-/// "item", "nearest" or "half".
+/// "auto", "item", "nearest" or "half".
 const char* work_grant_name(WorkGrant g);
+/// The rule a machine with `params` runs: params.work_grant, with kAuto
+/// resolved to kHalf on a transport and kItem in the emulator (the paper's).
+WorkGrant resolved_work_grant(const MachineParams& params);
 
 /// The largest byte size parse_bytes accepts: 2^62 B (4 EiB), far above any
 /// host, so that sizes and their sums stay clear of size_t overflow.

@@ -70,7 +70,11 @@ enum class WorkRequestRoute : std::uint8_t { kRing, kLastGrantor, kOff };
 /// grants one item, as kItem, but the one nearest the requester's last
 /// item (the request carries its centre): a requester's items lie next to
 /// each other and to its own submap, so its cached pages serve them.
-enum class WorkGrant : std::uint8_t { kItem, kHalf, kNearest };
+/// kAuto is the machine's choice (resolved_work_grant, machine.h): kItem in
+/// the emulator, kHalf on a transport's processes, where every grant is a
+/// real round trip whose wait depends on how often the granting node takes
+/// its mail.
+enum class WorkGrant : std::uint8_t { kItem, kHalf, kNearest, kAuto };
 
 /// Thrown inside node code when the run is being stopped because another
 /// participant failed (or the watchdog fired); Machine::run swallows it.

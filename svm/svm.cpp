@@ -157,7 +157,7 @@ std::size_t node_fixed_bytes(const nodes::MachineParams& m, const PageLayout& la
          sizeof(core::ShadingScratch) +
          (layout.directory_order == DirectoryOrder::kBricked ? core::CellKeyTables::words(in.grid) * sizeof(std::int32_t)
                                                              : 0) +
-         message_reserve(m.max_payload) + control::work_farm_bytes(m.work_grant, submaps, params.item_w, params.item_h);
+         message_reserve(m.max_payload) + control::work_farm_bytes(nodes::resolved_work_grant(m), submaps, params.item_w, params.item_h);
 }
 
 /// A node's state in its arena, loaded by the host (outside virtual time):

@@ -212,3 +212,25 @@ TEST_CASE("transport: a machine over a transport needs one node per process") {
   CHECK_THROWS_WITH_AS(Machine{p}, "the loopback transport runs one node per process: 2 processes, 3 nodes",
                        std::invalid_argument);
 }
+
+TEST_CASE("transport: auto work grants are the paper's item in the emulator and half on a transport") {
+  MachineParams p;
+  CHECK(p.work_grant == WorkGrant::kAuto);
+  CHECK(resolved_work_grant(p) == WorkGrant::kItem);
+  Hub hub(1);
+  LoopbackTransport t(hub, 0);
+  p.transport = &t;
+  CHECK(resolved_work_grant(p) == WorkGrant::kHalf);
+  // A rule given explicitly is kept, with or without a transport.
+  for (WorkGrant g : {WorkGrant::kItem, WorkGrant::kNearest, WorkGrant::kHalf}) {
+    CAPTURE(work_grant_name(g));
+    p.work_grant = g;
+    CHECK(resolved_work_grant(p) == g);
+    p.transport = nullptr;
+    CHECK(resolved_work_grant(p) == g);
+    p.transport = &t;
+    CHECK(parse_work_grant(work_grant_name(g)) == g);
+  }
+  CHECK(parse_work_grant("auto") == WorkGrant::kAuto);
+  CHECK_THROWS_AS(parse_work_grant("most"), std::invalid_argument);
+}
