@@ -7,13 +7,15 @@
 # DIR holds the builds as raynode_NAME and the scene files the builds read
 # (tree_11.nff.gz, sombrero_1.nff.gz, gears_4.nff.gz, lattice_12.nff.gz,
 # shells_5.nff.gz: `raynode scene write NAME:SIZE -o FILE`; scan_room.nff.gz:
-# a 39,200-triangle displaced sphere on a floor beside a mirror wall;
+# a 39,200-triangle displaced sphere on a floor beside a mirror wall,
+# `python3 docs/scan_room.py scan_room.nff.gz`;
 # teapot8_floor1000.nff.gz, tetra8_floor1000.nff.gz: `raynode scene write
 # teapot:8` (or tetra:8) with one square floor polygon appended just below
 # the model, 1000x its width: `p 4` at z = -0.01 for the teapot, -1.01 for
 # Tetra, half-widths 4000 and 1000). One job per physical core (its first hardware thread), eight
 # at once, two scenes per job, five alternated rounds of `bench accel SCENE
-# --repeat 3 --width 256 --height 256 --json`; each line of OUT is
+# --repeat 3 --width 256 --height 256 --json` ($REPEAT and $WIDTH, if set,
+# replace the 3 and the 256 x 256); each line of OUT is
 # NAME|ROUND|SCENE|JSON. A build named `old` skips the 1000x-floor scenes
 # (a uniform grid takes minutes there). $LAUNCH, if set, prefixes each run
 # (e.g. a dynamic loader and --library-path for builds carried elsewhere).
@@ -30,8 +32,8 @@ job() {
     for spec in "$@"; do
       for b in $bins; do
         case "$b|$spec" in old\|*floor1000*) continue ;; esac
-        r=$(timeout 60 taskset -c "$core" ${LAUNCH:-} "./raynode_$b" bench accel $spec --repeat 3 --width 256 \
-            --height 256 --json 2>/dev/null | tr -d '\n ')
+        r=$(timeout 60 taskset -c "$core" ${LAUNCH:-} "./raynode_$b" bench accel $spec --repeat "${REPEAT:-3}" \
+            --width "${WIDTH:-256}" --height "${WIDTH:-256}" --json 2>/dev/null | tr -d '\n ')
         echo "$b|$rep|$spec|$r" >> "$out.core$core"
       done
     done

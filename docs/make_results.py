@@ -420,7 +420,7 @@ def section_mpi(src):
     loaded = rows_of("mpi-validation-512-run1.csv")
 
     def body(rows):
-        return [[r["scene"], r["mode"], r["clock"], f"{float(r['t1_wall_s']):.3f} / {float(r['t2_wall_s']):.3f}",
+        return [[r["scene"], r["mode"], r["clock"], f"{float(r['t1_wall_s']):.3f} / {float(r['tp_wall_s']):.3f}",
                  f"{float(r['speedup_measured']):.2f}", pct(float(r["efficiency_measured"])),
                  pct(float(r["efficiency_predicted"])), f"{float(r['error_points']):+.1f}"] for r in rows]
 
