@@ -131,10 +131,11 @@ struct TraversalScratch {
 namespace detail {
 
 /// Sphere or cone test (not a triangle): the hit's t when one lies in
-/// (ray.tmin, t_max), else +inf (a hit's t is below t_max, so never +inf). Kept out of line so that the
-/// per-primitive loop, which inlines only the triangle test, stays small;
-/// it takes and returns values, so that the caller's hit and counters, to
-/// which it has no reference, stay in registers.
+/// (ray.tmin, t_max), else +inf (a hit's t is below t_max, so never +inf).
+/// Kept out of line so that the per-primitive loop, which inlines only the
+/// triangle test, stays small; it takes and returns values, so that the
+/// caller's hit and counters, to which it has no reference, stay in
+/// registers.
 [[gnu::noinline]] inline float intersect_curved(const Primitive& p, const Ray& ray, float t_max) {
   float t;
   if (p.kind == PrimitiveKind::kSphere) {
@@ -430,7 +431,7 @@ struct SubWalk {
 /// kSubGridCode + j for a cell descends into sub-grid j. The visitor comes
 /// in and goes back by value (see walk_cells).
 template <class View, class Visit>
-[[gnu::noinline, gnu::flatten]] SubWalk<Visit> walk_paged_sub_grid(const View& view, std::uint32_t index,
+[[gnu::noinline]] SubWalk<Visit> walk_paged_sub_grid(const View& view, std::uint32_t index,
                                                                    const Ray& ray, const Vec3& inv_v, Visit visit) {
   const SubGrid g = view.sub_grid(index);
   bool stopped = false;
@@ -455,7 +456,7 @@ template <class View, class Visit>
 /// bounds are the cell's box, so the inner walk covers the ray's piece in
 /// that cell). The visitor comes in and goes back by value (see walk_cells).
 template <class Visit>
-[[gnu::noinline, gnu::flatten]] SubWalk<Visit> walk_sub_grid(const SubGridTables& t, std::uint32_t index,
+[[gnu::noinline]] SubWalk<Visit> walk_sub_grid(const SubGridTables& t, std::uint32_t index,
                                                              const Ray& ray, const Vec3& inv_v, Visit visit) {
   const SubGrid& g = t.sub_grids[index];
   const std::uint32_t* entries = t.cell_entries.data() + g.first_entry;
@@ -541,10 +542,11 @@ namespace detail {
 // never takes their address; they are written back once per ray): a store
 // through `scratch` could alias them and would force a reload per primitive.
 
-/// The cell visit of intersect_closest: tests a leaf's primitives, keeps
-/// the nearest hit, and stops the walk once that hit lies within the leaf.
-template <int KX, int KY, int KZ, class View>
-struct ClosestVisit {
+/// The cell visit of both queries: tests a leaf's primitives and keeps the
+/// nearest hit. intersect_closest (kAny false) stops the walk once that hit
+/// lies within the leaf; intersect_any (kAny true) at the first hit.
+template <int KX, int KY, int KZ, class View, bool kAny>
+struct CellVisit {
   const View* view;
   const Ray* ray;
   const WatertightRay* w;
@@ -557,6 +559,7 @@ struct ClosestVisit {
   [[gnu::always_inline]] std::uint32_t operator()(std::uint32_t cell, float t_exit) {
     ++stats.cells_visited;
     const auto listed = [&](std::uint32_t id) [[gnu::always_inline]] {
+      if (kAny && found) return;
       if (mailbox.seen_or_insert(id)) {
         ++stats.mailbox_skips;
         return;
@@ -566,8 +569,10 @@ struct ClosestVisit {
     std::uint32_t empty;
     if constexpr (has_packed_cells<View>) {
       empty = view->visit_cell(cell, listed, [&](const CellBlockSpan& cb) [[gnu::always_inline]] {
-        found |= intersect_cell_blocks<KX, KY, KZ, false>(cb, *ray, *w, hit.t, hit.u, hit.v, hit.primitive,
-                                                         stats.triangle_tests);
+        // (any: a paged view hands a cell over in pieces, and one hit is enough)
+        if (kAny && found) return;
+        found |= intersect_cell_blocks<KX, KY, KZ, kAny>(cb, *ray, *w, hit.t, hit.u, hit.v, hit.primitive,
+                                                        stats.triangle_tests);
       });
     } else {
       empty = view->for_each_in_cell(cell, listed);
@@ -578,51 +583,7 @@ struct ClosestVisit {
         return empty;
       }
     }
-    if (found && hit.t <= t_exit) return kStopWalk;
-    stats.empty_jumps += empty >= kMinJumpDistance;
-    return empty;
-  }
-};
-
-/// The cell visit of intersect_any: stops the walk at the first hit.
-template <int KX, int KY, int KZ, class View>
-struct AnyVisit {
-  const View* view;
-  const Ray* ray;
-  const WatertightRay* w;
-  const TriangleRayLanes* lanes;
-  Mailbox::Probe mailbox;
-  Hit hit;
-  bool found = false;
-  TraversalStats stats{};
-
-  [[gnu::always_inline]] std::uint32_t operator()(std::uint32_t cell, float) {
-    ++stats.cells_visited;
-    const auto listed = [&](std::uint32_t id) [[gnu::always_inline]] {
-      if (found) return;
-      if (mailbox.seen_or_insert(id)) {
-        ++stats.mailbox_skips;
-        return;
-      }
-      found = intersect_primitive_axes<KX, KY, KZ>(view->primitive(id), id, *ray, *w, *lanes, hit, stats);
-    };
-    std::uint32_t empty;
-    if constexpr (has_packed_cells<View>) {
-      empty = view->visit_cell(cell, listed, [&](const CellBlockSpan& cb) [[gnu::always_inline]] {
-        // (a paged view hands a cell over in pieces: one hit is enough)
-        found = found || intersect_cell_blocks<KX, KY, KZ, true>(cb, *ray, *w, hit.t, hit.u, hit.v, hit.primitive,
-                                                                 stats.triangle_tests);
-      });
-    } else {
-      empty = view->for_each_in_cell(cell, listed);
-    }
-    if constexpr (has_paged_sub_grids<View>) {
-      if (empty >= kSubGridCode) [[unlikely]] {
-        --stats.cells_visited;
-        return empty;
-      }
-    }
-    if (found) return kStopWalk;
+    if (found && (kAny || hit.t <= t_exit)) return kStopWalk;
     stats.empty_jumps += empty >= kMinJumpDistance;
     return empty;
   }
@@ -632,7 +593,7 @@ template <int KX, int KY, int KZ, class View>
 [[gnu::flatten]] inline bool intersect_closest_axes(const View& view, const Ray& ray, const WatertightRay& w, Hit& hit_out,
                                    TraversalScratch& scratch) {
   const TriangleRayLanes lanes(ray, w);
-  ClosestVisit<KX, KY, KZ, View> visit{&view, &ray, &w, &lanes, scratch.mailbox.probe(), hit_out};
+  CellVisit<KX, KY, KZ, View, false> visit{&view, &ray, &w, &lanes, scratch.mailbox.probe(), hit_out};
   walk_cells(view, ray, visit);
   scratch.stats += visit.stats;
   hit_out = visit.hit;
@@ -644,7 +605,7 @@ template <int KX, int KY, int KZ, class View>
   const TriangleRayLanes lanes(ray, w);
   Hit hit;
   hit.t = ray.tmax;
-  AnyVisit<KX, KY, KZ, View> visit{&view, &ray, &w, &lanes, scratch.mailbox.probe(), hit};
+  CellVisit<KX, KY, KZ, View, true> visit{&view, &ray, &w, &lanes, scratch.mailbox.probe(), hit};
   walk_cells(view, ray, visit);
   scratch.stats += visit.stats;
   return visit.found;
