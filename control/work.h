@@ -6,7 +6,7 @@
 // work item (default 3x3 pixels) from its near end, and when it runs dry
 // sends a work request around the ring embedded in the topology. A busy node
 // grants the requester work from its submap: one work item from the far
-// end (WorkGrant::kItem, the paper's rule and the default), the one item
+// end (WorkGrant::kItem, the paper's rule and the emulator's default), the one item
 // nearest the requester's last (kNearest), or (kHalf) the far
 // half of its remaining item rows as one rectangle, which the requester renders
 // as its new submap, item by item, and grants from in turn; an
