@@ -14,9 +14,7 @@
 set -euo pipefail
 raynode=$(realpath "$1") scene=$2 width=$3 rounds=$4
 shift 4
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
+. "$(dirname "$0")/mpi_common.sh"
 echo "round,mode,ranks,wall_s,node_wall_max_s,idle_wall_sum_s,communication_wall_sum_s"
 for round in $(seq "$rounds"); do
   for mode in svm replicated; do

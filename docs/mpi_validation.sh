@@ -16,16 +16,10 @@
 set -euo pipefail
 raynode=$(realpath "$1") width=$2 repeats=$3
 shift 3
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
+. "$(dirname "$0")/mpi_common.sh"
 mpirun -np 2 "$raynode" bench mpi --machine-out "$work/mpi.json" --json "$work/bench.json" > /dev/null
-read -r latency per_byte < <(python3 -c "
-import json; n = json.load(open('$work/mpi.json'))['network']; print(n['latency_s'], n['per_byte_s'])")
+latency=$(stat "$work/mpi.json" network latency_s) per_byte=$(stat "$work/mpi.json" network per_byte_s)
 
-key() {  # FILE KEY: machine.KEY of a --stats file
-  python3 -c "import json, sys; print(json.load(open(sys.argv[1]))['machine'][sys.argv[2]])" "$1" "$2"
-}
 best() {  # the least of the numbers on stdin
   sort -g | head -1
 }
@@ -38,13 +32,13 @@ for scene in "$@"; do
       wall[$n]=$(for _ in $(seq "$repeats"); do
         mpirun -np "$n" "$raynode" render "$scene" --mode "$mode" --transport mpi --width "$width" --height "$width" \
           -o "$work/o.ppm" --stats "$work/s.json" --quiet
-        key "$work/s.json" wall_s
+        stat "$work/s.json" machine wall_s
       done | best)
       for clock in cpu model; do
         pred[$clock$n]=$(for _ in $(seq "$repeats"); do
           "$raynode" render "$scene" --mode "$mode" --nodes "$n" --machine "$work/mpi.json" --clock "$clock" \
             --width "$width" --height "$width" -o "$work/o.ppm" --stats "$work/s.json" --quiet
-          key "$work/s.json" parallel_time_s
+          stat "$work/s.json" machine parallel_time_s
         done | best)
       done
     done

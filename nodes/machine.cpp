@@ -6,6 +6,7 @@
 #include <cctype>
 #include <chrono>
 #include <condition_variable>
+#include <cstring>
 #include <nlohmann/json.hpp>
 #include <thread>
 
@@ -48,6 +49,12 @@ MachineState::MachineState(const MachineParams& p)
       p.nodes, permits, p.schedule_window_s, [this](std::uint32_t node) { nodes[node]->mailbox().wake(); },
       p.scheduled_mail.value_or(false));
   if (p.network.contention && p.nodes > 1) links = std::make_unique<LinkNetwork>(topology);
+  if (p.transport) {
+    ray_window = std::int32_t(std::max<std::uint32_t>(1, p.mailbox_capacity / p.nodes));
+    const std::size_t pairs = std::size_t(p.nodes + 1) * p.nodes;
+    ray_credits.reset(new std::atomic<std::int32_t>[pairs]);
+    for (std::size_t i = 0; i < pairs; ++i) ray_credits[i].store(ray_window, std::memory_order_relaxed);
+  }
 }
 
 MachineState::~MachineState() = default;
@@ -329,6 +336,13 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
   } receiving{transport};
   if (transport)
     transport->start([&state](NodeId dest, const MessageHeader& h, std::span<const std::byte> payload) {
+      if (h.type == MessageType::kControl && h.reserved == kRayCreditTag && payload.size() == sizeof(std::int32_t)) {
+        std::int32_t count;
+        std::memcpy(&count, payload.data(), sizeof count);
+        state.ray_credit(dest, h.source).fetch_add(count, std::memory_order_release);
+        state.progress.fetch_add(1, std::memory_order_relaxed);
+        return;
+      }
       deliver_to(state, dest, h, payload);
     });
 

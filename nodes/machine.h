@@ -154,6 +154,18 @@ class MachineState {
   std::unique_ptr<Scheduler> scheduler;
   std::unique_ptr<LinkNetwork> links;  ///< the links in virtual time, under NetworkModel::contention
   std::atomic<std::uint64_t> progress{0};  ///< messages sent so far (the stall watchdog's measure)
+  /// Under a transport, ray messages (kRay) to another process's node
+  /// travel on credits, so that a send there is refused as a send to a full
+  /// mailbox is in the emulator (dataflow then queues or spills the ray,
+  /// the paper's rule): each sender may have `ray_window` rays taken by no
+  /// one yet per destination node, and the destination hands credits back
+  /// as it takes them (NodeContext::take). Empty without a transport.
+  std::unique_ptr<std::atomic<std::int32_t>[]> ray_credits;
+  std::int32_t ray_window = 0;  ///< max(1, mailbox slots / nodes): the senders share a mailbox
+  /// The credits `from` (a node or the host) holds for sending rays to node `to`.
+  std::atomic<std::int32_t>& ray_credit(NodeId from, NodeId to) {
+    return ray_credits[std::size_t(from == kHost ? params.nodes : from) * params.nodes + to];
+  }
 
   NodeContext& context(NodeId id) { return id == kHost ? *host : *nodes[id]; }
   /// Does this process run participant `id` (always, without a transport)?

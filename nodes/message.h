@@ -49,7 +49,7 @@ const char* message_type_name(MessageType type);
 /// the payload size.
 struct MessageHeader {
   MessageType type = MessageType::kTest;
-  std::uint16_t reserved = 0;
+  std::uint16_t reserved = 0;  ///< kRayCreditTag on a transport's ray credits (MachineState::ray_credits), else 0
   NodeId source = 0;
   std::uint32_t payload_bytes = 0;
   std::uint32_t wire_bytes = 0;
@@ -57,6 +57,10 @@ struct MessageHeader {
   double arrival_time = 0;  ///< virtual time at which it reaches the receiver, seconds
 };
 static_assert(std::is_trivially_copyable_v<MessageHeader>);
+/// MessageHeader::reserved of a kControl message that returns ray credits
+/// between processes (payload: one std::int32_t count). The transport's
+/// delivery takes it; no participant sees it.
+inline constexpr std::uint16_t kRayCreditTag = 0x5243;
 
 /// A received message: the header and a view of its payload bytes, valid
 /// until the receiver's next receive.

@@ -57,12 +57,14 @@ NodeContext::NodeContext(MachineState& machine, NodeId id, std::size_t budget, s
       backlog_(&arena_),
       deferred_(&arena_),
       backlog_current_(&arena_),
+      ray_taken_(&arena_),
       model_clock_(machine.params.clock == ComputeClock::kModel) {}
 
 NodeContext::~NodeContext() {
   backlog_.clear();
   deferred_.clear();
   backlog_current_ = std::pmr::vector<std::byte>(&arena_);
+  ray_taken_ = std::pmr::vector<std::int32_t>(&arena_);
 }
 
 std::uint32_t NodeContext::node_count() const { return machine_->params.nodes; }
@@ -283,6 +285,16 @@ bool NodeContext::push_to(NodeId dest, MessageHeader& header, std::span<const st
       throw std::length_error(fmt::format("{} message of {} B exceeds the mailbox slot of {} B",
                                           message_type_name(header.type), header.payload_bytes,
                                           machine_->params.max_payload));
+    // A ray to another process's node needs a credit: without one, its
+    // share of the node's mailbox is full (MachineState::ray_credits).
+    if (header.type == MessageType::kRay && dest != kHost) {
+      std::atomic<std::int32_t>& credit = machine_->ray_credit(id_, dest);
+      if (credit.load(std::memory_order_acquire) <= 0) {
+        costly = false;
+        return false;
+      }
+      credit.fetch_sub(1, std::memory_order_relaxed);  // only this participant takes its credits
+    }
     machine_->params.transport->send(dest, header, parts, machine_->params.nodes);
     costly = true;
     return true;
@@ -415,7 +427,25 @@ Message NodeContext::take(const MessageHeader& h, std::span<const std::byte> pay
   MessageCounts& c = counters_.received[std::size_t(h.type)];
   ++c.messages;
   c.bytes += h.wire_bytes;
+  if (h.type == MessageType::kRay && transport_ && id_ != kHost && !machine_->is_local(h.source)) return_ray_credit(h.source);
   return Message{h, payload};
+}
+
+void NodeContext::return_ray_credit(NodeId source) {
+  // Credits go back in batches of half the window (at least one), so that
+  // a stream of rays costs one credit message per half window.
+  if (ray_taken_.empty()) ray_taken_.assign(std::size_t(machine_->params.nodes) + 1, 0);
+  std::int32_t& taken = ray_taken_[source == kHost ? machine_->params.nodes : source];
+  if (++taken < std::max<std::int32_t>(1, machine_->ray_window / 2)) return;
+  MessageHeader h;
+  h.type = MessageType::kControl;
+  h.reserved = kRayCreditTag;
+  h.source = id_;
+  h.payload_bytes = sizeof(std::int32_t);
+  h.wire_bytes = sizeof(std::int32_t);
+  const std::span<const std::byte> parts[1] = {std::as_bytes(std::span(&taken, 1))};
+  transport_->send(source, h, parts, machine_->params.nodes);
+  taken = 0;
 }
 
 void NodeContext::accept(const MessageHeader& header, std::span<const std::byte> payload) {

@@ -347,6 +347,9 @@ class NodeContext {
   void sync_compute();
   void end_messaging();
   Message take(const MessageHeader& h, std::span<const std::byte> payload);
+  /// Under a transport: counts a ray taken from another process's `source`
+  /// and hands its credits back in batches (MachineState::ray_credits).
+  void return_ray_credit(NodeId source);
   void check_stop() const;
 
   MachineState* machine_;
@@ -367,6 +370,9 @@ class NodeContext {
   std::size_t park_limit_ = SIZE_MAX;  ///< set_park_limit()
   std::pmr::deque<Parked> deferred_;  ///< set aside by defer(), not seen by poll()
   std::pmr::vector<std::byte> backlog_current_;
+  /// Under a transport: rays taken from each sender (by node id, the host
+  /// last) whose credits are not handed back yet (return_ray_credit).
+  std::pmr::vector<std::int32_t> ray_taken_;
   std::atomic<std::uint8_t> wait_reason_{0};
   std::atomic<std::int64_t> wait_a_{-1}, wait_b_{-1};
   std::atomic<double> clock_seen_{0};  ///< clock_ as of the last wait, for the watchdog

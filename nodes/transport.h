@@ -53,8 +53,9 @@ class Transport {
   /// when every process receives, so that their runs start together.
   virtual void start(Deliver deliver) = 0;
   /// Sends a message to a participant of another process. Never refuses
-  /// (the receiving process queues it until its mailbox has room); thread
-  /// safe. Throws std::runtime_error when the engine fails.
+  /// (the receiving process queues it until its mailbox has room; the
+  /// machine itself refuses a ray beyond the sender's credits,
+  /// MachineState::ray_credits); thread safe. Throws std::runtime_error when the engine fails.
   virtual void send(NodeId dest, const MessageHeader& header, std::span<const std::span<const std::byte>> parts,
                     std::uint32_t nodes) = 0;
   /// After this process's participants have all returned: waits until every

@@ -234,3 +234,59 @@ TEST_CASE("transport: auto work grants are the paper's item in the emulator and 
   CHECK(parse_work_grant("auto") == WorkGrant::kAuto);
   CHECK_THROWS_AS(parse_work_grant("most"), std::invalid_argument);
 }
+
+TEST_CASE("transport: a ray to another process's node is refused once its share of the mailbox is taken") {
+  // Two processes over the loopback; 8 mailbox slots, so each sender may
+  // have 8 / 2 = 4 rays not yet taken by node 1 (MachineState::ray_credits).
+  constexpr std::uint32_t kRays = 20;
+  MachineParams base;
+  base.nodes = 2;
+  base.mailbox_capacity = 8;
+  base.timeout_s = 60;
+  std::atomic<bool> go{false};
+  std::atomic<std::uint32_t> before_refusal{0}, refusals{0};
+  std::vector<std::uint32_t> order;
+  auto node = [&](NodeContext& ctx) {
+    if (ctx.id() == 0) {
+      std::uint32_t sent = 0;
+      while (sent < kRays) {
+        if (ctx.try_send(1, MessageType::kRay, Hello{0, sent})) {
+          ++sent;
+          continue;
+        }
+        if (refusals++ == 0) {
+          before_refusal = sent;
+          go = true;  // node 1 starts taking rays only now
+        }
+        std::this_thread::sleep_for(std::chrono::microseconds(200));
+      }
+    } else {
+      while (!go) std::this_thread::sleep_for(std::chrono::microseconds(200));
+      while (order.size() < kRays) {
+        const Message m = ctx.receive(WaitKind::kIdle);
+        REQUIRE(m.type() == MessageType::kRay);
+        order.push_back(m.as<Hello>().round);
+      }
+    }
+    ctx.send(kHost, MessageType::kNodeDone, Hello{ctx.id(), 0});
+    while (ctx.receive(WaitKind::kIdle).type() != MessageType::kShutdown) {
+    }
+  };
+  Hub hub(2);
+  std::vector<std::unique_ptr<LoopbackTransport>> transports;
+  for (std::uint32_t p = 0; p < 2; ++p) transports.push_back(std::make_unique<LoopbackTransport>(hub, p));
+  std::vector<std::uint32_t> reported;
+  std::vector<std::thread> processes;
+  for (std::uint32_t p = 0; p < 2; ++p)
+    processes.emplace_back([&, p] {
+      MachineParams mp = base;
+      mp.transport = transports[p].get();
+      Machine(mp).run(node, [&](NodeContext& host) { gathering_host(host, reported); });
+    });
+  for (std::thread& t : processes) t.join();
+  CHECK(before_refusal == 4);  // the window, while node 1 took nothing
+  CHECK(refusals > 0);
+  std::vector<std::uint32_t> expected(kRays);
+  for (std::uint32_t i = 0; i < kRays; ++i) expected[i] = i;
+  CHECK(order == expected);  // every ray arrived once, in order, once credits came back
+}
