@@ -428,9 +428,7 @@ void register_render_command(CLI::App& app) {
                 "(0 = off)")
       ->check(finite_range(0, 1))
       ->capture_default_str();
-  c->add_option("--shadow-rays", o->shadow_rays, kShadowRaysHelp)
-      ->check(CLI::IsMember({"facing", "all"}))
-      ->capture_default_str();
+  add_shadow_rays_option(*c, o->shadow_rays);
   c->add_option("--stats", o->stats_path,
                 "Write counters (rays per kind, skips per reason, intersection tests, cells) and timings as "
                 "JSON to this file");

@@ -126,9 +126,7 @@ void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) 
     c.add_option("--repeat", o.repeat, "Runs per point; the one with the lowest T_p is kept (best of)")
         ->check(CLI::Range(1, 100))
         ->capture_default_str();
-    c.add_option("--shadow-rays", o.shadow_rays, kShadowRaysHelp)
-        ->check(CLI::IsMember({"facing", "all"}))
-        ->capture_default_str();
+    add_shadow_rays_option(c, o.shadow_rays);
   }
   if (set.page_size) {
     c.add_option("--page-size", o.page_size,

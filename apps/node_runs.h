@@ -97,10 +97,17 @@ struct NodeRunOptions {
   std::uint32_t send_queue = 0;         ///< sending queue slots; 0 = the node memory left (the paper's rule)
 };
 
-/// --shadow-rays' help, for render and the node commands.
-inline constexpr const char* kShadowRaysHelp =
-    "Lights a hit casts shadow rays to: facing (those the surface faces; a light behind adds nothing) or all "
-    "(every light, as the paper's tracer counted its rays: the same image, more rays)";
+/// Adds --shadow-rays (facing or all) to `c`, bound to `word`: render and
+/// the node commands take it alike.
+inline CLI::Option* add_shadow_rays_option(CLI::App& c, std::string& word) {
+  return c
+      .add_option("--shadow-rays", word,
+                  "Lights a hit casts shadow rays to: facing (those the surface faces; a light behind adds "
+                  "nothing) or all (every light, as the paper's tracer counted its rays: the same image, more "
+                  "rays)")
+      ->check(CLI::IsMember({"facing", "all"}))
+      ->capture_default_str();
+}
 
 /// --shadow-rays' word (checked by the CLI): kAll for "all", else kFacing.
 inline core::ShadowRays shadow_rays_from_name(const std::string& word) {

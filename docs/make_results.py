@@ -474,29 +474,27 @@ def section_mpi(src):
 
 def section_mpi_scaling(src):
     name = "mpi-scaling-teapot8-1024.csv"
-    rows = read_csv(os.path.join(RESULTS, name))
+    groups = {}  # (mode, ranks) -> (wall times, the nodes' summed waits), one entry per round
+    for r in read_csv(os.path.join(RESULTS, name)):
+        walls, waits = groups.setdefault((r["mode"], int(r["ranks"])), ([], []))
+        walls.append(float(r["wall_s"]))
+        waits.append(float(r["idle_wall_sum_s"]) + float(r["communication_wall_sum_s"]))
+    counts = sorted({p for _, p in groups})
     body, best_speedup = [], {}
     for mode in ("svm", "replicated"):
-        mine = [r for r in rows if r["mode"] == mode]
-        t1 = min(float(r["wall_s"]) for r in mine if r["ranks"] == "1")
-        for p in sorted({int(r["ranks"]) for r in mine}):
-            at = [r for r in mine if int(r["ranks"]) == p]
-            walls = [float(r["wall_s"]) for r in at]
-            waits = [float(r["idle_wall_sum_s"]) + float(r["communication_wall_sum_s"]) for r in at]
+        t1 = min(groups[(mode, 1)][0])
+        for p in counts:
+            walls, waits = groups[(mode, p)]
             speedup = t1 / min(walls)
             best_speedup[mode] = max(best_speedup.get(mode, (0, 0)), (speedup, p))
             body.append([mode, str(p), f"{min(walls):.3f}", f"{max(walls):.3f}", f"{speedup:.2f}",
                          pct(speedup / p), f"{median(waits):.3f}"])
     (svm_s, svm_p), (rep_s, rep_p) = best_speedup["svm"], best_speedup["replicated"]
-    counts = sorted({int(r["ranks"]) for r in rows})
 
     def waits_at(mode, p):
-        return median([float(r["idle_wall_sum_s"]) + float(r["communication_wall_sum_s"]) for r in rows
-                       if r["mode"] == mode and int(r["ranks"]) == p])
+        return median(groups[(mode, p)][1])
 
-    spread = max(max(float(r["wall_s"]) for r in rows if r["mode"] == m and int(r["ranks"]) == p)
-                 / min(float(r["wall_s"]) for r in rows if r["mode"] == m and int(r["ranks"]) == p)
-                 for m in ("svm", "replicated") for p in counts)
+    spread = max(max(walls) / min(walls) for walls, _ in groups.values())
     return "\n".join([
         "## MPI ranks on a 16-core machine",
         "",
