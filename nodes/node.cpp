@@ -58,7 +58,11 @@ NodeContext::NodeContext(MachineState& machine, NodeId id, std::size_t budget, s
       deferred_(&arena_),
       backlog_current_(&arena_),
       ray_taken_(&arena_),
-      model_clock_(machine.params.clock == ComputeClock::kModel) {}
+      model_clock_(machine.params.clock == ComputeClock::kModel) {
+  // A node's count of rays taken per sender, from its arena before any mode
+  // sizes its buffers from what is left (return_ray_credit).
+  if (transport_ && id_ != kHost) ray_taken_.assign(std::size_t(machine.params.nodes) + 1, 0);
+}
 
 NodeContext::~NodeContext() {
   backlog_.clear();
@@ -434,7 +438,6 @@ Message NodeContext::take(const MessageHeader& h, std::span<const std::byte> pay
 void NodeContext::return_ray_credit(NodeId source) {
   // Credits go back in batches of half the window (at least one), so that
   // a stream of rays costs one credit message per half window.
-  if (ray_taken_.empty()) ray_taken_.assign(std::size_t(machine_->params.nodes) + 1, 0);
   std::int32_t& taken = ray_taken_[source == kHost ? machine_->params.nodes : source];
   if (++taken < std::max<std::int32_t>(1, machine_->ray_window / 2)) return;
   MessageHeader h;
