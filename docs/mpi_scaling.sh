@@ -14,6 +14,7 @@
 set -euo pipefail
 raynode=$(realpath "$1") scene=$2 width=$3 rounds=$4
 shift 4
+# shellcheck source=docs/mpi_common.sh
 . "$(dirname "$0")/mpi_common.sh"
 echo "round,mode,ranks,wall_s,node_wall_max_s,idle_wall_sum_s,communication_wall_sum_s"
 for round in $(seq "$rounds"); do

@@ -18,6 +18,7 @@
 set -euo pipefail
 raynode=$(realpath "$1") width=$2 rounds=$3
 shift 3
+# shellcheck source=docs/mpi_common.sh
 . "$(dirname "$0")/mpi_common.sh"
 echo "scene,ranks,send_queue,round,transport,ray_messages,spill_fraction,queue_peak,wall_s,same_image"
 row() {  # SCENE P Q ROUND TRANSPORT STATS SAME

@@ -16,9 +16,10 @@
 set -euo pipefail
 raynode=$(realpath "$1") width=$2 repeats=$3
 shift 3
+# shellcheck source=docs/mpi_common.sh
 . "$(dirname "$0")/mpi_common.sh"
 mpirun -np 2 "$raynode" bench mpi --machine-out "$work/mpi.json" --json "$work/bench.json" > /dev/null
-latency=$(stat "$work/mpi.json" network latency_s) per_byte=$(stat "$work/mpi.json" network per_byte_s)
+latency=$(json_value "$work/mpi.json" network latency_s) per_byte=$(json_value "$work/mpi.json" network per_byte_s)
 
 best() {  # the least of the numbers on stdin
   sort -g | head -1
@@ -32,13 +33,13 @@ for scene in "$@"; do
       wall[$n]=$(for _ in $(seq "$repeats"); do
         mpirun -np "$n" "$raynode" render "$scene" --mode "$mode" --transport mpi --width "$width" --height "$width" \
           -o "$work/o.ppm" --stats "$work/s.json" --quiet
-        stat "$work/s.json" machine wall_s
+        json_value "$work/s.json" machine wall_s
       done | best)
       for clock in cpu model; do
         pred[$clock$n]=$(for _ in $(seq "$repeats"); do
           "$raynode" render "$scene" --mode "$mode" --nodes "$n" --machine "$work/mpi.json" --clock "$clock" \
             --width "$width" --height "$width" -o "$work/o.ppm" --stats "$work/s.json" --quiet
-          stat "$work/s.json" machine parallel_time_s
+          json_value "$work/s.json" machine parallel_time_s
         done | best)
       done
     done
