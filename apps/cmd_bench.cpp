@@ -112,7 +112,7 @@ void run_bench(const BenchOptions& o) {
     core::fit_resolution(width, height, core::render_view(db));
     const RaySet rs = make_rays(db, grid, width, height);
     core::CellBlocks blocks;
-    if (o.pack_min > 0) blocks = core::build_cell_blocks(db, grid, o.pack_min);
+    if (o.pack_min > 0) blocks = core::build_cell_blocks(db, grid, o.pack_min, core::PackKinds::kTrianglesAndSpheres);
     const core::DirectView dv(db, grid, o.pack_min > 0 ? &blocks : nullptr);
     core::TraversalScratch scratch;
     std::uint64_t sink = 0;
@@ -147,6 +147,7 @@ void run_bench(const BenchOptions& o) {
                         {"skip_empty", o.skip_empty},
                         {"pack_cells", o.pack_min},
                         {"packed_blocks", blocks.blocks.size()},
+                        {"packed_sphere_blocks", blocks.sphere_blocks.size()},
                         {"rays", std::uint64_t(n)},
                         {"closest_rays", rs.closest.size()},
                         {"shadow_rays", rs.shadow.size()},

@@ -114,7 +114,7 @@ Accelerator build_accelerator(const RenderOptions& o, const core::Database& db) 
     a.embree = std::make_unique<core::EmbreeScene>(db);
   } else {
     a.grid = core::build_grid(db, gp);
-    if (o.pack_min > 0 && !modes::is_node_mode(modes::parse_mode(o.mode))) a.blocks = core::build_cell_blocks(db, *a.grid, o.pack_min);
+    if (o.pack_min > 0 && !modes::is_node_mode(modes::parse_mode(o.mode))) a.blocks = core::build_cell_blocks(db, *a.grid, o.pack_min, core::PackKinds::kTrianglesAndSpheres);
   }
   a.build_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return a;

@@ -119,6 +119,7 @@ nlohmann::json render_stats_json(const RenderRecord& r) {
     j["pack_cells"] = svm ? r.extras.svm.at("pack_cells") : nlohmann::json(r.blocks ? r.blocks->min_triangles : 0);
     j["packed_blocks"] = svm ? r.extras.svm.at("packed_blocks")
                              : nlohmann::json(r.blocks ? r.blocks->blocks.size() : 0);
+    j["packed_sphere_blocks"] = r.blocks ? r.blocks->sphere_blocks.size() : 0;  // svm packs triangles only
   }
   for (const auto& [name, path] : r.aov_files) j["aov_outputs"][name] = path;
   if (!r.extras.nodes.is_null()) {

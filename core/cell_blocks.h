@@ -53,33 +53,61 @@ struct alignas(32) TriangleBlock {
 };
 static_assert(sizeof(TriangleBlock) == 320);
 
+/// kBlockLanes spheres, centres by axis and radii, lane by lane (the
+/// primitives' float values as stored, radii with their sign). Lanes past
+/// the cell's count hold zeros and are never reported.
+struct alignas(32) SphereBlock {
+  float center[3][kBlockLanes];          ///< [axis x,y,z][lane], world units
+  float radius[kBlockLanes];             ///< world units, signed as in the primitive
+  std::uint32_t primitive[kBlockLanes];  ///< primitive id of each lane
+};
+static_assert(sizeof(SphereBlock) == 160);
+
 /// The packed cells of a grid. A cell is packed when it lists at least
-/// `min_triangles` primitives and all of them are triangles; its blocks are
-/// blocks[start[c] .. start[c+1]), its triangles in list order, the last
-/// block holding count - kBlockLanes * (blocks - 1) of them.
+/// `min_triangles` primitives and all of them are triangles (or, when
+/// spheres are packed, all spheres); its blocks are blocks[start[c] ..
+/// start[c+1]) (sphere_blocks[sphere_start[c] .. sphere_start[c+1])), its
+/// primitives in list order, the last block holding count - kBlockLanes *
+/// (blocks - 1) of them.
 struct CellBlocks {
   std::vector<std::uint32_t> start;   ///< cell_count()+1 offsets into blocks
   std::vector<TriangleBlock> blocks;  ///< 32-byte aligned
-  std::uint32_t min_triangles = 0;    ///< the packing threshold it was built with
+  std::vector<std::uint32_t> sphere_start;  ///< cell_count()+1 offsets into sphere_blocks, or empty: none packed
+  std::vector<SphereBlock> sphere_blocks;   ///< 32-byte aligned
+  std::uint32_t min_triangles = 0;    ///< the packing threshold it was built with (primitives per cell)
   std::size_t bytes() const {
-    return start.size() * sizeof(std::uint32_t) + blocks.size() * sizeof(TriangleBlock);
+    return start.size() * sizeof(std::uint32_t) + blocks.size() * sizeof(TriangleBlock) +
+           sphere_start.size() * sizeof(std::uint32_t) + sphere_blocks.size() * sizeof(SphereBlock);
   }
 };
 
-/// Default least triangle count of a packed cell (`--pack-cells`); chosen
+/// Default least primitive count of a packed cell (`--pack-cells`); chosen
 /// with `raynode bench accel` (see docs/results.md).
 inline constexpr std::uint32_t kDefaultPackMin = 3;
 
+/// Which cells build_cell_blocks packs: triangle cells only (what svm's
+/// paged layout holds), or sphere cells too (the in-process views).
+enum class PackKinds { kTriangles, kTrianglesAndSpheres };
+
 /// Packs the cells of `grid` (over `db`) that list at least `min_triangles`
-/// (>= 1) primitives, all triangles. Throws std::invalid_argument for
-/// min_triangles == 0, std::length_error past 2^32 blocks.
-CellBlocks build_cell_blocks(const Database& db, const Grid& grid, std::uint32_t min_triangles = kDefaultPackMin);
+/// (>= 1) primitives, all triangles, or with kTrianglesAndSpheres all
+/// spheres. Throws std::invalid_argument for min_triangles == 0,
+/// std::length_error past 2^32 blocks.
+CellBlocks build_cell_blocks(const Database& db, const Grid& grid, std::uint32_t min_triangles = kDefaultPackMin,
+                             PackKinds kinds = PackKinds::kTriangles);
 
 /// A packed cell's view: its blocks and how many triangles they hold.
 struct CellBlockSpan {
   const TriangleBlock* blocks = nullptr;
   std::uint32_t block_count = 0;
   std::uint32_t triangles = 0;
+};
+
+/// A packed sphere cell's view: its blocks and how many spheres they hold.
+struct SphereBlockSpan {
+  const SphereBlock* blocks = nullptr;
+  std::uint32_t block_count = 0;
+  std::uint32_t spheres = 0;
 };
 
 namespace detail {
@@ -195,6 +223,74 @@ template <int KX, int KY, int KZ, bool kAny>
       hit_t = th.t;
       hit_u = th.u;
       hit_v = th.v;
+      hit_primitive = b.primitive[l];
+      found = true;
+      if constexpr (kAny) return true;
+    }
+  }
+  return found;
+}
+
+/// Tests a packed sphere cell's spheres in list order against `ray`, with
+/// intersect_sphere's answers: on a hit nearer than hit_t, updates the hit
+/// (u = v = 0) and returns true. `any`: stop at the first hit in
+/// (ray.tmin, hit_t). Adds the spheres tested to `sphere_tests`.
+///
+/// Each block first goes through a conservative float cull, eight lanes at
+/// once: a lane is dropped only when the ray's line passes farther from the
+/// centre than |r| + delta, or when the interval of t where the line is
+/// within |r| + 2 delta of the centre ends before ray.tmin or starts after
+/// hit_t. delta = 1e-5 (max |c - o|_i + |r|) is over a hundred times the
+/// float rounding error of the values compared (each is a few operations on
+/// c - o and d, whose errors are relative to |c - o| and |r|). Comparisons
+/// are written so that a NaN or an overflow keeps the lane, and the
+/// surviving lanes run intersect_sphere itself: the same hits, t and
+/// primitive as the list walk, whatever the cull lets through. A surviving
+/// lane goes through the ray's `mailbox` (Mailbox::Probe, traverse.h), so a
+/// large sphere listed in many cells costs one exact test per ray.
+template <bool kAny, class Mailbox>
+[[gnu::always_inline]] inline bool intersect_cell_spheres(const SphereBlockSpan& cell, const Ray& ray, Mailbox& mailbox,
+                                                         float& hit_t, float& hit_u, float& hit_v,
+                                                         std::uint32_t& hit_primitive, std::uint64_t& sphere_tests,
+                                                         std::uint64_t& mailbox_skips) {
+  sphere_tests += cell.spheres;
+  const float dx = ray.direction.x, dy = ray.direction.y, dz = ray.direction.z;
+  const float inv_a = 1.0f / (dx * dx + dy * dy + dz * dz);
+  const LaneF zero = {};
+  const auto mag = [](LaneF a) { return reinterpret_cast<LaneF>(reinterpret_cast<LaneI>(a) & 0x7fffffff); };
+  bool found = false;
+  std::uint32_t left = cell.spheres;
+  for (std::uint32_t k = 0; k < cell.block_count; ++k, left -= kBlockLanes) {
+    const SphereBlock& b = cell.blocks[k];
+    const LaneF* const c = reinterpret_cast<const LaneF*>(b.center);
+    const LaneF gx = c[0] - ray.origin.x, gy = c[1] - ray.origin.y, gz = c[2] - ray.origin.z;
+    const LaneF r = mag(*reinterpret_cast<const LaneF*>(b.radius));
+    const LaneF s = (gx * dx + gy * dy + gz * dz) * inv_a;  // t of the point nearest the centre
+    const LaneF lx = gx - s * dx, ly = gy - s * dy, lz = gz - s * dz;
+    const LaneF dist2 = lx * lx + ly * ly + lz * lz;
+    const LaneF mx = mag(gx), my = mag(gy), mz = mag(gz);
+    const LaneF m = (mx > my ? (mx > mz ? mx : mz) : (my > mz ? my : mz)) + r;
+    const LaneF delta = m * 1e-5f;
+    const LaneF near = r + delta, reach = r + 2.0f * delta;
+    const LaneF reach2 = reach * reach * inv_a;
+    const LaneF before = ray.tmin - s, after = s - hit_t;
+    const LaneI miss = (dist2 > near * near + 1e-35f) | ((before > zero) & (before * before > reach2)) |
+                       ((after > zero) & (after * after > reach2));
+    std::uint32_t bits = lane_bits(~miss);
+    if (left < kBlockLanes) bits &= (1u << left) - 1;
+    while (bits) {
+      const std::uint32_t l = std::uint32_t(__builtin_ctz(bits));
+      bits &= bits - 1;
+      if (mailbox.seen_or_insert(b.primitive[l])) {
+        ++mailbox_skips;
+        continue;
+      }
+      float t;
+      if (!intersect_sphere(ray, Vec3{b.center[0][l], b.center[1][l], b.center[2][l]}, b.radius[l], hit_t, t))
+        continue;
+      hit_t = t;
+      hit_u = 0;
+      hit_v = 0;
       hit_primitive = b.primitive[l];
       found = true;
       if constexpr (kAny) return true;

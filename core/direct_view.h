@@ -30,6 +30,8 @@ struct DatabaseArrays {
   GridInfo grid;
   std::span<const std::uint32_t> block_start = {};  ///< CellBlocks::start, or empty: no packed cell
   std::span<const TriangleBlock> blocks = {};       ///< CellBlocks::blocks
+  std::span<const std::uint32_t> sphere_block_start = {};  ///< CellBlocks::sphere_start, or empty: no packed sphere cell
+  std::span<const SphereBlock> sphere_blocks = {};         ///< CellBlocks::sphere_blocks
   std::span<const SubGrid> sub_grids = {};          ///< Grid::sub_grids (adaptive), or empty: uniform
   std::span<const std::uint32_t> cell_entries = {};  ///< Grid::cell_entries (adaptive), or empty
   std::span<const std::uint64_t> top_sub_grid_bits = {};  ///< Grid::top_sub_grid_bits (adaptive), or empty
@@ -45,6 +47,8 @@ struct DatabaseArrays {
     if (blocks) {
       a.block_start = blocks->start;
       a.blocks = blocks->blocks;
+      a.sphere_block_start = blocks->sphere_start;
+      a.sphere_blocks = blocks->sphere_blocks;
     }
     return a;
   }
@@ -52,7 +56,7 @@ struct DatabaseArrays {
   std::size_t bytes() const {
     return primitives.size_bytes() + vertex_normals.size_bytes() + materials.size_bytes() + cell_start.size_bytes() +
            cell_primitives.size_bytes() + empty_distance.size_bytes() + block_start.size_bytes() +
-           blocks.size_bytes() + sub_grids.size_bytes() + cell_entries.size_bytes() + top_sub_grid_bits.size_bytes();
+           blocks.size_bytes() + sphere_block_start.size_bytes() + sphere_blocks.size_bytes() + sub_grids.size_bytes() + cell_entries.size_bytes() + top_sub_grid_bits.size_bytes();
   }
 };
 
@@ -75,7 +79,8 @@ class DirectView {
     return 0;
   }
   /// for_each_in_cell, except that a packed cell is handed whole to
-  /// packed(const CellBlockSpan&) instead of id by id to f.
+  /// packed(const CellBlockSpan&), or packed(const SphereBlockSpan&),
+  /// instead of id by id to f.
   template <class F, class P>
   std::uint32_t visit_cell(std::uint32_t cell, F&& f, P&& packed) const {
     if (const std::uint32_t d = a_.empty_distance[cell]) return d;
@@ -84,6 +89,13 @@ class DirectView {
       const std::uint32_t k = a_.block_start[cell], k_end = a_.block_start[cell + 1];
       if (k != k_end) {
         packed(CellBlockSpan{a_.blocks.data() + k, k_end - k, e - b});
+        return 0;
+      }
+    }
+    if (!a_.sphere_block_start.empty()) {
+      const std::uint32_t k = a_.sphere_block_start[cell], k_end = a_.sphere_block_start[cell + 1];
+      if (k != k_end) {
+        packed(SphereBlockSpan{a_.sphere_blocks.data() + k, k_end - k, e - b});
         return 0;
       }
     }

@@ -568,11 +568,15 @@ struct CellVisit {
     };
     std::uint32_t empty;
     if constexpr (has_packed_cells<View>) {
-      empty = view->visit_cell(cell, listed, [&](const CellBlockSpan& cb) [[gnu::always_inline]] {
+      empty = view->visit_cell(cell, listed, [&]<class Span>(const Span& cb) [[gnu::always_inline]] {
         // (any: a paged view hands a cell over in pieces, and one hit is enough)
         if (kAny && found) return;
-        found |= intersect_cell_blocks<KX, KY, KZ, kAny>(cb, *ray, *w, hit.t, hit.u, hit.v, hit.primitive,
-                                                        stats.triangle_tests);
+        if constexpr (std::is_same_v<Span, SphereBlockSpan>)
+          found |= intersect_cell_spheres<kAny>(cb, *ray, mailbox, hit.t, hit.u, hit.v, hit.primitive,
+                                                stats.sphere_tests, stats.mailbox_skips);
+        else
+          found |= intersect_cell_blocks<KX, KY, KZ, kAny>(cb, *ray, *w, hit.t, hit.u, hit.v, hit.primitive,
+                                                          stats.triangle_tests);
       });
     } else {
       empty = view->for_each_in_cell(cell, listed);

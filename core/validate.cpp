@@ -142,7 +142,7 @@ class Checker {
  public:
   Checker(const Database& db, const Grid& grid, const EmbreeScene& embree, const ValidateParams& p,
           ValidateReport& report)
-      : blocks_(p.pack_min > 0 ? build_cell_blocks(db, grid, p.pack_min) : CellBlocks{}),
+      : blocks_(p.pack_min > 0 ? build_cell_blocks(db, grid, p.pack_min, PackKinds::kTrianglesAndSpheres) : CellBlocks{}),
         view_(db, grid, p.pack_min > 0 ? &blocks_ : nullptr),
         embree_(embree),
         params_(p),

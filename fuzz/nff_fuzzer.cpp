@@ -84,7 +84,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         render(db, grid, rp);
         // Again with every non-empty cell packed into triangle blocks (the
         // CLI's default path packs cells of 3 or more).
-        const CellBlocks blocks = build_cell_blocks(db, grid, 1);
+        const CellBlocks blocks = build_cell_blocks(db, grid, 1, PackKinds::kTrianglesAndSpheres);
         render_image(DirectView(db, grid, &blocks), db, rp);
       } catch (const std::runtime_error& e) {
         // The one refusal allowed: no view, and bounds too large for a default camera.

@@ -18,6 +18,7 @@
 #include "core/grid.h"
 #include "core/scene.h"
 #include "core/scene_source.h"
+#include "core/scene_transform.h"
 #include "core/traverse.h"
 #include "grid_test_support.h"
 
@@ -161,5 +162,95 @@ TEST_CASE("cell blocks: packed and listed cells give bit-identical hits and any-
         CHECK(cmp.differ == 0);
       }
     }
+  }
+}
+
+TEST_CASE("cell blocks: sphere cells are packed only when asked, their lanes holding the list's spheres in order") {
+  const Database db = make_database(load_scene({"balls:3", 0}));
+  const Grid grid = build_grid(db);
+  const CellBlocks triangles_only = build_cell_blocks(db, grid, 1);
+  CHECK(triangles_only.sphere_start.empty());  // svm's paged layout holds no sphere blocks
+  CHECK(triangles_only.sphere_blocks.empty());
+  const CellBlocks cb = build_cell_blocks(db, grid, 1, PackKinds::kTrianglesAndSpheres);
+  const std::uint32_t cells = grid.leaf_cells();
+  REQUIRE(cb.sphere_start.size() == std::size_t(cells) + 1);
+  REQUIRE(cb.sphere_start.back() == cb.sphere_blocks.size());
+  CHECK(cb.blocks.size() == triangles_only.blocks.size());
+  std::size_t packed = 0;
+  for (std::uint32_t c = 0; c < cells; ++c) {
+    const std::uint32_t n = grid.cell_start[c + 1] - grid.cell_start[c];
+    bool all_spheres = n > 0;
+    for (std::uint32_t i = grid.cell_start[c]; i < grid.cell_start[c + 1]; ++i)
+      all_spheres &= db.primitives[grid.cell_primitives[i]].kind == PrimitiveKind::kSphere;
+    const std::uint32_t blocks = cb.sphere_start[c + 1] - cb.sphere_start[c];
+    REQUIRE(blocks == (all_spheres ? (n + kBlockLanes - 1) / kBlockLanes : 0));
+    if (!all_spheres) continue;
+    ++packed;
+    CHECK(cb.start[c] == cb.start[c + 1]);  // never packed twice
+    for (std::uint32_t i = 0; i < n; ++i) {
+      const SphereBlock& b = cb.sphere_blocks[cb.sphere_start[c] + i / kBlockLanes];
+      const std::uint32_t l = i % kBlockLanes, id = grid.cell_primitives[grid.cell_start[c] + i];
+      REQUIRE(b.primitive[l] == id);
+      for (int a = 0; a < 3; ++a) REQUIRE(same_bits(b.center[a][l], db.primitives[id].data[a]));
+      REQUIRE(same_bits(b.radius[l], db.primitives[id].radius()));
+    }
+  }
+  CHECK(packed > 0);
+}
+
+TEST_CASE("cell blocks: packed sphere cells give bit-identical hits at any scale, for grazing rays and from inside") {
+  // The float cull must never drop a sphere the exact test would hit: rays
+  // aimed at centres, grazing the silhouette (the line's distance within a
+  // few ulps of the radius), starting inside a sphere or on its surface,
+  // and segments ending near a surface, on scenes scaled from 1e-6 to 1e6
+  // and moved by 1e4.
+  struct Case {
+    const char* spec;
+    double scale, shift;
+  };
+  for (const Case& c : {Case{"balls:3", 1, 0}, Case{"balls:3", 1e-6, 0}, Case{"balls:3", 1e6, 0},
+                        Case{"balls:3", 1, 1e4}, Case{"shells:1", 1, 0}}) {
+    CAPTURE(c.spec);
+    CAPTURE(c.scale);
+    CAPTURE(c.shift);
+    Scene scene = load_scene({c.spec, 0});
+    transform_scene(scene, SceneTransform{c.scale, {c.shift, -c.shift, c.shift}});
+    const Database db = make_database(scene);
+    const Grid grid = build_grid(db);
+    const DirectView list(db, grid);
+    const CellBlocks cb = build_cell_blocks(db, grid, 1, PackKinds::kTrianglesAndSpheres);
+    REQUIRE(!cb.sphere_blocks.empty());
+    const DirectView packed(db, grid, &cb);
+    std::vector<std::uint32_t> spheres;
+    for (std::uint32_t i = 0; i < db.primitives.size(); ++i)
+      if (db.primitives[i].kind == PrimitiveKind::kSphere) spheres.push_back(i);
+    TraversalScratch scratch;
+    Comparison cmp;
+    Rng rng(11);
+    const Bounds3 box = grown(db.bounds, 0.3f);
+    for (int i = 0; i < 4000; ++i) {
+      const Primitive& p = db.primitives[spheres[rng() % spheres.size()]];
+      const Vec3 centre = p.center();
+      const float r = std::fabs(p.radius());
+      Vec3 o = random_in(rng, box), d = random_unit(rng);
+      switch (i % 5) {
+        case 0: d = centre - o; break;  // at the centre
+        case 1: {                       // grazing: aimed at a point on the silhouette
+          const Vec3 to = normalize(centre - o);
+          Vec3 side = normalize(cross(to, random_unit(rng)));
+          d = centre + side * (r * (1.0f + uniform(rng, -4e-7f, 4e-7f))) - o;
+          break;
+        }
+        case 2: o = centre + random_unit(rng) * (r * uniform(rng, 0.0f, 0.999f)); break;  // inside
+        case 3: o = centre + random_unit(rng) * r; break;                                 // on the surface
+        default: break;
+      }
+      cmp.fire(list, packed, Ray{o, d, 0.0f, kInfinity}, scratch);
+      // A segment ending near the aimed surface (shadow rays, and the cull's t interval).
+      cmp.fire(list, packed, Ray{o, d, 0.0f, uniform(rng, 0.9f, 1.1f)}, scratch);
+    }
+    INFO("first difference: " << cmp.first);
+    CHECK(cmp.hits > cmp.rays / 10);
+    CHECK(cmp.differ == 0);
   }
 }

@@ -88,7 +88,7 @@ struct Built {
   Grid grid;
   CellBlocks blocks;
   explicit Built(const Scene& s, const GridParams& gp = {}, const DatabaseParams& dp = {})
-      : db(make_database(s, dp)), grid(build_grid(db, gp)), blocks(build_cell_blocks(db, grid, 1)) {}
+      : db(make_database(s, dp)), grid(build_grid(db, gp)), blocks(build_cell_blocks(db, grid, 1, PackKinds::kTrianglesAndSpheres)) {}
   /// Every cell walks its primitive list (the node modes' tracing).
   DirectView view() const { return DirectView(db, grid); }
   /// Every all-triangle cell tested in SIMD blocks (sequential mode's).
