@@ -103,7 +103,7 @@ SequentialReference sequential_reference(const NodesBenchOptions& o, const core:
                                          const core::Grid& grid, const NodeRunSpec& spec, bool pairs) {
   SequentialReference ref;
   std::optional<core::CellBlocks> blocks;
-  if (o.pack_min > 0) blocks = core::build_cell_blocks(db, grid, o.pack_min, core::PackKinds::kTrianglesAndSpheres);
+  if (o.pack_min > 0) blocks = core::build_cell_blocks(db, grid, o.pack_min);
   const core::DirectView view(db, grid, blocks ? &*blocks : nullptr);
   for (int i = 0; i < std::max(1, o.run.repeat); ++i) {
     const auto t0 = std::chrono::steady_clock::now();

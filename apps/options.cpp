@@ -180,10 +180,11 @@ void add_pack_cells_option(CLI::App& cmd, std::uint32_t& pack_min) {
   cmd.add_option_function<std::string>(
          "--pack-cells",
          [&pack_min](const std::string& v) { pack_min = v == "off" ? 0 : std::uint32_t(std::stoul(v)); },
-         fmt::format("Grid tracing: cells listing at least N triangles keep them in SIMD blocks of {} and are "
-                     "tested a block at a time (same hits); off = every cell walks its primitive list, as the "
-                     "paper's tracer [default: {} in sequential and shared modes, bench and validate; off in svm, "
-                     "which then pages the blocks (pages of 512 B or more); replicated and dataflow: off only]",
+         fmt::format("Grid tracing: cells listing at least N primitives, all triangles (or, outside svm, all "
+                     "spheres), keep them in SIMD blocks of {} and are tested a block at a time (same hits); off = "
+                     "every cell walks its primitive list, as the paper's tracer [default: {} in sequential and "
+                     "shared modes, bench and validate; off in svm, which then pages the triangle blocks (pages of "
+                     "512 B or more); replicated and dataflow: off only]",
                      raynode::core::kBlockLanes, raynode::core::kDefaultPackMin))
       ->check(CLI::IsMember({"off"}) | CLI::Range(1, 1 << 20));
 }

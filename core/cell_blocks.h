@@ -4,7 +4,8 @@
 // triangles in order, not by id from the primitive array. This is the
 // "triangle4/8" idea of Embree's leaves (Wald et al., "Embree: a kernel
 // framework for efficient CPU ray tracing", SIGGRAPH 2014) applied to the
-// cells of a uniform grid.
+// cells of a uniform grid. Cells of spheres are packed alike (SphereBlock),
+// in the in-process views only, under a memory cap (build_cell_blocks).
 //
 // Place in the data flow: Database + Grid -> build_cell_blocks -> CellBlocks
 // -> DatabaseArrays / DirectView (direct_view.h) -> the one tracer
@@ -91,8 +92,12 @@ enum class PackKinds { kTriangles, kTrianglesAndSpheres };
 
 /// Packs the cells of `grid` (over `db`) that list at least `min_triangles`
 /// (>= 1) primitives, all triangles, or with kTrianglesAndSpheres all
-/// spheres. Throws std::invalid_argument for min_triangles == 0,
-/// std::length_error past 2^32 blocks.
+/// spheres. Sphere blocks are capped at 4 times the blocks that would hold
+/// each sphere once, the cells with the longest lists packed first: a
+/// sphere is copied into every packed cell listing it, and large
+/// overlapping spheres (SPD shells: 93 times) would outgrow the cache and
+/// trace slower than the lists. Throws std::invalid_argument for
+/// min_triangles == 0, std::length_error past 2^32 blocks.
 CellBlocks build_cell_blocks(const Database& db, const Grid& grid, std::uint32_t min_triangles = kDefaultPackMin,
                              PackKinds kinds = PackKinds::kTriangles);
 

@@ -254,3 +254,37 @@ TEST_CASE("cell blocks: packed sphere cells give bit-identical hits at any scale
     CHECK(cmp.differ == 0);
   }
 }
+
+TEST_CASE("cell blocks: sphere blocks stay within four times the blocks of each sphere once, longest cells first") {
+  // Large overlapping spheres (SPD shells) are listed in many cells each:
+  // packing every all-sphere cell would copy them far past the budget.
+  const Database db = make_database(load_scene({"shells:3", 0}));
+  const Grid grid = build_grid(db);
+  std::uint64_t spheres = 0;
+  for (const Primitive& p : db.primitives) spheres += p.kind == PrimitiveKind::kSphere;
+  const std::uint64_t budget = 4 * ((spheres + kBlockLanes - 1) / kBlockLanes);
+  const CellBlocks cb = build_cell_blocks(db, grid, 1, PackKinds::kTrianglesAndSpheres);
+  REQUIRE(!cb.sphere_blocks.empty());
+  CHECK(cb.sphere_blocks.size() <= budget);
+  // Every eligible cell left out is longer than the budget left after the
+  // cells at least as long were packed: the greedy longest-first choice.
+  std::uint64_t eligible_blocks = 0;
+  std::vector<std::pair<std::uint32_t, bool>> eligible;  // (blocks, packed)
+  for (std::uint32_t c = 0; c < grid.leaf_cells(); ++c) {
+    const std::uint32_t n = grid.cell_start[c + 1] - grid.cell_start[c];
+    bool all_spheres = n > 0;
+    for (std::uint32_t i = grid.cell_start[c]; i < grid.cell_start[c + 1]; ++i)
+      all_spheres &= db.primitives[grid.cell_primitives[i]].kind == PrimitiveKind::kSphere;
+    if (!all_spheres) continue;
+    const std::uint32_t blocks = (n + kBlockLanes - 1) / kBlockLanes;
+    eligible_blocks += blocks;
+    eligible.emplace_back(blocks, cb.sphere_start[c + 1] != cb.sphere_start[c]);
+  }
+  REQUIRE(eligible_blocks > budget);  // the scene does exceed the cap
+  for (const auto& [blocks, packed] : eligible) {
+    if (packed) continue;
+    std::uint64_t longer_or_equal = 0;  // blocks packed in cells at least as long (taken before it)
+    for (const auto& [b2, p2] : eligible) longer_or_equal += (p2 && b2 >= blocks) ? b2 : 0;
+    CHECK(longer_or_equal + blocks > budget);
+  }
+}
