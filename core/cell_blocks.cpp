@@ -43,7 +43,8 @@ std::uint32_t plan_blocks(const Database& db, const Grid& grid, std::uint32_t mi
         want += blocks_of(c);
       }
     if (want > max_blocks) {
-      std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return blocks_of(a) > blocks_of(b); });
+      std::stable_sort(order.begin(), order.end(),
+                       [&](std::uint32_t a, std::uint32_t b) { return blocks_of(a) > blocks_of(b); });
       std::uint64_t taken = 0;
       for (const std::uint32_t c : order) {
         const bool fits = taken + blocks_of(c) <= max_blocks;
@@ -105,7 +106,8 @@ CellBlocks build_cell_blocks(const Database& db, const Grid& grid, std::uint32_t
     for (const Primitive& p : db.primitives) spheres += p.kind == PrimitiveKind::kSphere;
     std::vector<std::uint32_t> start;
     const std::uint64_t budget = kSphereBlockBudget * ((spheres + kBlockLanes - 1) / kBlockLanes);
-    const std::uint32_t n = plan_blocks(db, grid, min_triangles, PrimitiveKind::kSphere, std::max<std::uint64_t>(budget, 1), start);
+    const std::uint32_t n =
+        plan_blocks(db, grid, min_triangles, PrimitiveKind::kSphere, std::max<std::uint64_t>(budget, 1), start);
     if (n > 0) {  // otherwise no sphere arrays: the views skip the second look-up
       out.sphere_start = std::move(start);
       out.sphere_blocks.assign(n, SphereBlock{});

@@ -21,9 +21,11 @@
 // function exactly 0 goes to intersect_triangle_axes itself. Lanes are taken
 // in list order with the running nearest t as the bound, so the hit (t, u, v
 // and primitive, ties to the earlier listed) is the one the list walk finds.
-// A packed cell does not use the ray's mailbox: testing a block again costs
-// less than looking its ids up, and a second test of a primitive can never
-// replace the hit (its t is not below the nearest found since).
+// A packed triangle cell does not use the ray's mailbox: testing a block
+// again costs less than looking its ids up, and a second test of a
+// primitive can never replace the hit (its t is not below the nearest found
+// since). A packed sphere cell culls its lanes in float first and sends the
+// survivors through the mailbox to the exact test (intersect_cell_spheres).
 #pragma once
 
 #include <cstddef>
@@ -248,13 +250,15 @@ template <int KX, int KY, int KZ, bool kAny>
 /// hit_t. delta = 1e-5 (max |c - o|_i + |r|) is over a hundred times the
 /// float rounding error of the values compared (each is a few operations on
 /// c - o and d, whose errors are relative to |c - o| and |r|). Comparisons
-/// are written so that a NaN or an overflow keeps the lane, and the
+/// are written so that a NaN or an overflow keeps the lane (and a floor of
+/// 1e-35 on the squared distance keeps it near float's underflow), and the
 /// surviving lanes run intersect_sphere itself: the same hits, t and
 /// primitive as the list walk, whatever the cull lets through. A surviving
 /// lane goes through the ray's `mailbox` (Mailbox::Probe, traverse.h), so a
 /// large sphere listed in many cells costs one exact test per ray.
-template <bool kAny, class Mailbox>
-[[gnu::always_inline]] inline bool intersect_cell_spheres(const SphereBlockSpan& cell, const Ray& ray, Mailbox& mailbox,
+template <bool kAny, class MailboxProbe>
+[[gnu::always_inline]] inline bool intersect_cell_spheres(const SphereBlockSpan& cell, const Ray& ray,
+                                                         MailboxProbe& mailbox,
                                                          float& hit_t, float& hit_u, float& hit_v,
                                                          std::uint32_t& hit_primitive, std::uint64_t& sphere_tests,
                                                          std::uint64_t& mailbox_skips) {

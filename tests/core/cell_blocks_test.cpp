@@ -28,6 +28,14 @@ using namespace raynode::testing::grid;
 
 bool same_bits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
+/// Whether leaf cell `c` lists primitives, all spheres (a sphere cell that may be packed).
+bool lists_only_spheres(const Database& db, const Grid& grid, std::uint32_t c) {
+  bool all = grid.cell_start[c + 1] > grid.cell_start[c];
+  for (std::uint32_t i = grid.cell_start[c]; i < grid.cell_start[c + 1]; ++i)
+    all &= db.primitives[grid.cell_primitives[i]].kind == PrimitiveKind::kSphere;
+  return all;
+}
+
 /// Fires `rays` through both views and counts the rays whose closest hit
 /// (t, u, v, primitive, bit for bit) or any-hit answer differ.
 struct Comparison {
@@ -179,9 +187,7 @@ TEST_CASE("cell blocks: sphere cells are packed only when asked, their lanes hol
   std::size_t packed = 0;
   for (std::uint32_t c = 0; c < cells; ++c) {
     const std::uint32_t n = grid.cell_start[c + 1] - grid.cell_start[c];
-    bool all_spheres = n > 0;
-    for (std::uint32_t i = grid.cell_start[c]; i < grid.cell_start[c + 1]; ++i)
-      all_spheres &= db.primitives[grid.cell_primitives[i]].kind == PrimitiveKind::kSphere;
+    const bool all_spheres = lists_only_spheres(db, grid, c);
     const std::uint32_t blocks = cb.sphere_start[c + 1] - cb.sphere_start[c];
     REQUIRE(blocks == (all_spheres ? (n + kBlockLanes - 1) / kBlockLanes : 0));
     if (!all_spheres) continue;
@@ -272,9 +278,7 @@ TEST_CASE("cell blocks: sphere blocks stay within four times the blocks of each 
   std::vector<std::pair<std::uint32_t, bool>> eligible;  // (blocks, packed)
   for (std::uint32_t c = 0; c < grid.leaf_cells(); ++c) {
     const std::uint32_t n = grid.cell_start[c + 1] - grid.cell_start[c];
-    bool all_spheres = n > 0;
-    for (std::uint32_t i = grid.cell_start[c]; i < grid.cell_start[c + 1]; ++i)
-      all_spheres &= db.primitives[grid.cell_primitives[i]].kind == PrimitiveKind::kSphere;
+    const bool all_spheres = lists_only_spheres(db, grid, c);
     if (!all_spheres) continue;
     const std::uint32_t blocks = (n + kBlockLanes - 1) / kBlockLanes;
     eligible_blocks += blocks;
