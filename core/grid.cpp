@@ -508,7 +508,7 @@ class AdaptiveBuilder {
     const int x = int(c % std::uint32_t(info.res[0]));
     const int y = int(c / std::uint32_t(info.res[0]) % std::uint32_t(info.res[1]));
     const int z = int(c / (std::uint32_t(info.res[0]) * std::uint32_t(info.res[1])));
-    sub.bounds = info.cell_bounds(x, y, z);
+    sub.bounds = tight_box(info, info.cell_bounds(x, y, z), list);
     const double n = double(list.size());
     choose_adaptive_resolution(sub.bounds, double(params_.density) * n, kMaxSubGridResolution, sub.res);
     const double m = double(sub.cell_count());
@@ -544,6 +544,28 @@ class AdaptiveBuilder {
     // references it would meet in the leaf.
     const double r = refs / m;
     return r <= kSubGridGain * n && std::cbrt(m) * r <= n;
+  }
+
+  // The part of `cell` (a cell of `info`) that `list`'s primitives can
+  // reach: their bounds' union grown by the cell inflation (they are
+  // listed when they touch the inflated cell) and clipped to the cell. An
+  // axis left thinner than twice that margin keeps the cell's extent, so
+  // no sub-grid axis is degenerate.
+  Bounds3 tight_box(const GridInfo& info, const Bounds3& cell, std::span<const std::uint32_t> list) const {
+    Bounds3 reach;
+    for (const std::uint32_t id : list) reach.extend(db_.primitives[id].bounds());
+    double eps[3];
+    cell_inflation(info, mag_eps_, eps);
+    Bounds3 box = cell;
+    for (int a = 0; a < 3; ++a) {
+      const double lo = std::max(double(cell.lower[a]), double(reach.lower[a]) - eps[a]);
+      const double hi = std::min(double(cell.upper[a]), double(reach.upper[a]) + eps[a]);
+      if (hi - lo < 2.0 * eps[a]) continue;
+      // Rounded outwards, so the float box holds the double one.
+      box.lower[a] = std::max(cell.lower[a], std::nextafter(float(lo), -std::numeric_limits<float>::infinity()));
+      box.upper[a] = std::min(cell.upper[a], std::nextafter(float(hi), std::numeric_limits<float>::infinity()));
+    }
+    return box;
   }
 
   const Database& db_;

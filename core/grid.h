@@ -33,8 +33,11 @@
 // Wyvill 1989, with per-cell resolutions chosen as in Kalojanov, Billeter &
 // Slusallek, "Two-Level Grids for Ray Tracing on GPUs", EG 2011). A top grid
 // over the same padded box, then, recursively to level max_depth, every
-// cell that lists many primitives gets its own uniform sub-grid over
-// exactly its box. Cost model, per ray crossing a cell that lists n
+// cell that lists many primitives gets its own uniform sub-grid over the
+// part of its box that its primitives reach (their bounds' union, grown by
+// the cell inflation and clipped to the cell: a mesh in a stadium-sized
+// top cell gets its sub-cells over the mesh, and a ray that misses that
+// box costs one slab test). Cost model, per ray crossing a cell that lists n
 // primitives (times in units of one primitive test):
 //   leaf:      C_leaf = n
 //   sub-grid:  C_sub  ~ C_enter + k * (C_step + r),
@@ -147,7 +150,7 @@ struct GridInfo {
 /// top grid's cell c is leaf c, and the walk reads an entry only for a top
 /// cell that Grid::top_sub_grid_bits marks.
 struct SubGrid {
-  GridInfo info;                 ///< bounds: exactly the parent cell's box (GridInfo::cell_bounds)
+  GridInfo info;                 ///< bounds: the part of the parent cell its primitives reach (within GridInfo::cell_bounds)
   std::uint32_t first_entry = 0;  ///< its cells' entries in Grid::cell_entries
   std::uint32_t level = 0;        ///< 0 for the top grid, parent's level + 1 below
 };

@@ -66,6 +66,23 @@ void check_random_rays(const Built& b, std::uint64_t seed, int rays, const Bound
   rc.require_clean();
 }
 
+// Every primitive listed in a leaf of sub-grid `index` or of the grids below it.
+std::vector<std::uint32_t> primitives_below(const Grid& grid, std::uint32_t index) {
+  std::vector<std::uint32_t> ids;
+  const SubGrid& g = grid.sub_grids[index];
+  for (std::uint32_t c = 0; c < g.info.cell_count(); ++c) {
+    const std::uint32_t e = grid.cell_entries[g.first_entry + c];
+    if (e & kSubGridEntry) {
+      const std::vector<std::uint32_t> below = primitives_below(grid, e & ~kSubGridEntry);
+      ids.insert(ids.end(), below.begin(), below.end());
+    } else {
+      ids.insert(ids.end(), grid.cell_primitives.begin() + grid.cell_start[e],
+                 grid.cell_primitives.begin() + grid.cell_start[e + 1]);
+    }
+  }
+  return ids;
+}
+
 ValidateReport validate(const Database& db, const Grid& grid) {
   const EmbreeScene embree(db);
   ValidateParams vp;
@@ -208,6 +225,33 @@ TEST_CASE("adaptive grid: all primitives in one top cell are refined in a sub-gr
   check_random_rays(b, 22, 1500, grown(b.db.bounds, 0.3f));
 }
 
+TEST_CASE("adaptive grid: a sub-grid covers only the part of its cell that its primitives reach") {
+  // A mesh of size ~2 at the origin and one triangle 1000 away: the mesh
+  // fills a corner of one top cell 500 wide.
+  Scene s = random_scene(25, 600, 0, 0, 0.05f);
+  const Vec3 far_away[3] = {{1000, 1000, 1000}, {1001, 1000, 1000}, {1000, 1001, 1000}};
+  s.add_polygon(far_away, 3);
+  GridParams p = adaptive();
+  p.resolution[0] = p.resolution[1] = p.resolution[2] = 2;
+  const Built b(s, p);
+  REQUIRE(b.grid.sub_grid_count() >= 1);
+  REQUIRE((b.grid.cell_entries[0] & kSubGridEntry) != 0);
+  const SubGrid& child = b.grid.sub_grids[b.grid.cell_entries[0] & ~kSubGridEntry];
+  Bounds3 mesh;
+  for (const Primitive& q : b.db.primitives)
+    if (q.bounds().upper.x < 500) mesh.extend(q.bounds());
+  for (int a = 0; a < 3; ++a) {
+    CHECK(child.info.bounds.lower[a] <= mesh.lower[a]);
+    CHECK(child.info.bounds.upper[a] >= mesh.upper[a]);
+    CHECK(child.info.bounds.extent()[a] < 1.1f * mesh.extent()[a]);  // the cell is 250x wider
+  }
+  // Rays from inside the sub-grid's box, from the rest of its cell, and
+  // from beyond the grid.
+  check_random_rays(b, 26, 1500, grown(mesh, 0.1f));
+  check_random_rays(b, 27, 1500, Bounds3{{-1, -1, -1}, {400, 400, 400}});
+  check_random_rays(b, 28, 500, Bounds3{{-2000, -2000, -2000}, {2000, 2000, 2000}});
+}
+
 TEST_CASE("adaptive grid: a flat scene and an extremely elongated scene agree with brute force and Embree") {
   Rng rng(31);
   Scene flat, thin;
@@ -290,16 +334,25 @@ TEST_CASE("adaptive grid: every leaf cell is reached exactly once from the top g
         CHECK(e == s.first_entry + c);
       } else {
         CHECK(b.grid.cell_start[s.first_entry + c] == b.grid.cell_start[s.first_entry + c + 1]);
-        // A sub-grid covers exactly its parent cell's box.
-        const SubGrid& child = b.grid.sub_grids[e & ~kSubGridEntry];
+        // A sub-grid lies within its parent cell's box and holds the part
+        // of that box every primitive below it reaches.
+        const std::uint32_t ci = e & ~kSubGridEntry;
+        const SubGrid& child = b.grid.sub_grids[ci];
         const int x = int(c % std::uint32_t(s.info.res[0]));
         const int y = int(c / std::uint32_t(s.info.res[0]) % std::uint32_t(s.info.res[1]));
         const int z = int(c / (std::uint32_t(s.info.res[0]) * std::uint32_t(s.info.res[1])));
         const Bounds3 cb = s.info.cell_bounds(x, y, z);
         CHECK(child.level == s.level + 1);
         for (int a = 0; a < 3; ++a) {
-          CHECK(child.info.bounds.lower[a] == cb.lower[a]);
-          CHECK(child.info.bounds.upper[a] == cb.upper[a]);
+          CHECK(child.info.bounds.lower[a] >= cb.lower[a]);
+          CHECK(child.info.bounds.upper[a] <= cb.upper[a]);
+        }
+        for (const std::uint32_t id : primitives_below(b.grid, ci)) {
+          const Bounds3 pb = b.db.primitives[id].bounds();
+          for (int a = 0; a < 3; ++a) {
+            CHECK(child.info.bounds.lower[a] <= std::max(pb.lower[a], cb.lower[a]));
+            CHECK(child.info.bounds.upper[a] >= std::min(pb.upper[a], cb.upper[a]));
+          }
         }
       }
     }
