@@ -144,6 +144,7 @@ std::vector<GridLevel> grid_levels(const core::Grid& grid) {
     l.cells += s.info.cell_count();
     for (std::uint32_t c = 0; c < s.info.cell_count(); ++c)
       if (!(grid.cell_entries[s.first_entry + c] & core::kSubGridEntry)) count_leaf(l, s.first_entry + c);
+    if (s.large_list) count_leaf(l, s.first_entry + s.info.cell_count());
   }
   return levels;
 }

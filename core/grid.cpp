@@ -443,14 +443,17 @@ class AdaptiveBuilder {
   AdaptiveBuilder(const Database& db, const GridParams& params, Grid& grid)
       : db_(db), params_(params), grid_(grid), mag_eps_(magnitude_eps(grid_bounds(db))) {}
 
-  // Builds the grid `info` over `prims` (ascending ids) at `level`; returns
+  // Builds the grid `info` over `prims` (ascending ids) at `level`, with
+  // `large` (ascending ids) in the leaf after its cells (SubGrid); returns
   // its index in grid.sub_grids.
-  std::uint32_t build(const GridInfo& info, std::span<const std::uint32_t> prims, std::uint32_t level) {
+  std::uint32_t build(const GridInfo& info, std::span<const std::uint32_t> prims, std::uint32_t level,
+                      std::span<const std::uint32_t> large = {}) {
     const auto index = std::uint32_t(grid_.sub_grids.size());
     const std::uint32_t ncells = info.cell_count();
     const auto first = std::uint32_t(grid_.cell_entries.size());
-    grid_.sub_grids.push_back(SubGrid{info, first, level});
-    grid_.cell_entries.resize(std::size_t(first) + ncells);
+    const std::uint32_t nleaves = ncells + (large.empty() ? 0 : 1);
+    grid_.sub_grids.push_back(SubGrid{info, first, level, !large.empty()});
+    grid_.cell_entries.resize(std::size_t(first) + nleaves);
     double eps[3];
     cell_inflation(info, mag_eps_, eps);
     auto poll = [&] {
@@ -471,44 +474,104 @@ class AdaptiveBuilder {
     // A cell holding a sub-grid lists primitives, so it counts as non-empty.
     compute_empty_distance(local, params_.skip_empty);
     // Leaf first + c for every cell c, a placeholder (no list) where the
-    // cell holds a sub-grid; the sub-grids are built after, so that this
-    // grid's leaves stay contiguous (SubGrid).
+    // cell holds a sub-grid, then the large primitives' leaf; the
+    // sub-grids are built after, so that this grid's leaves stay
+    // contiguous (SubGrid).
     if (grid_.leaf_cells() != first) throw std::logic_error("build_grid: adaptive leaf numbering out of step");
-    if (std::uint64_t(first) + ncells >= kSubGridEntry)
+    if (std::uint64_t(first) + nleaves >= kSubGridEntry)
       throw std::length_error("build_grid: more than 2^31 leaf cells in the adaptive grid");
-    std::vector<std::pair<std::uint32_t, GridInfo>> children;
+    struct Child {
+      std::uint32_t cell;
+      GridInfo info;
+      std::vector<std::uint32_t> small, large;  // the sub-grid's primitives; those beside it
+    };
+    std::vector<Child> children;
     for (std::uint32_t c = 0; c < ncells; ++c) {
       const std::uint32_t b = local.cell_start[c], e = local.cell_start[c + 1];
-      GridInfo sub;
-      const bool refine = level < std::uint32_t(params_.max_depth) && e - b >= params_.sub_grid_min &&
-                          make_sub_grid(info, c, std::span(local.cell_primitives).subspan(b, e - b), sub);
-      if (refine) {
-        children.emplace_back(c, sub);
-      } else {
-        grid_.cell_primitives.insert(grid_.cell_primitives.end(), local.cell_primitives.begin() + b,
-                                     local.cell_primitives.begin() + e);
+      const std::span<const std::uint32_t> list = std::span(local.cell_primitives).subspan(b, e - b);
+      bool refine = false;
+      if (level < std::uint32_t(params_.max_depth) && e - b >= params_.sub_grid_min) {
+        Child child{c, {}, {}, {}};
+        split_large(info, c, list, child.small, child.large);
+        refine = make_sub_grid(info, c, child.small, child.info);
+        if (!refine && !child.large.empty()) {  // the split did not pay: all in the sub-grid, if that does
+          child.small.assign(list.begin(), list.end());
+          child.large.clear();
+          refine = make_sub_grid(info, c, child.small, child.info);
+        }
+        if (refine) children.push_back(std::move(child));
       }
+      if (!refine)
+        grid_.cell_primitives.insert(grid_.cell_primitives.end(), list.begin(), list.end());
       grid_.cell_start.push_back(std::uint32_t(grid_.cell_primitives.size()));
       grid_.empty_distance.push_back(refine ? 0 : local.empty_distance[c]);
       grid_.cell_entries[first + c] = first + c;
     }
-    for (const auto& [c, sub] : children) {
-      const std::uint32_t b = local.cell_start[c], e = local.cell_start[c + 1];
-      const std::uint32_t child = build(sub, std::span(local.cell_primitives).subspan(b, e - b), level + 1);
-      grid_.cell_entries[first + c] = kSubGridEntry | child;
-      if (level == 0) grid_.top_sub_grid_bits[c >> 6] |= std::uint64_t(1) << (c & 63);
+    if (!large.empty()) {
+      grid_.cell_primitives.insert(grid_.cell_primitives.end(), large.begin(), large.end());
+      grid_.cell_start.push_back(std::uint32_t(grid_.cell_primitives.size()));
+      grid_.empty_distance.push_back(0);
+      grid_.cell_entries[first + ncells] = first + ncells;
+    }
+    for (const Child& ch : children) {
+      const std::uint32_t child = build(ch.info, ch.small, level + 1, ch.large);
+      grid_.cell_entries[first + ch.cell] = kSubGridEntry | child;
+      if (level == 0) grid_.top_sub_grid_bits[ch.cell >> 6] |= std::uint64_t(1) << (ch.cell & 63);
     }
     return index;
   }
 
  private:
-  // The sub-grid cell c of `info` would hold over `list`, if one pays
-  // (header comment: the cost model); false keeps the cell a leaf.
-  bool make_sub_grid(const GridInfo& info, std::uint32_t c, std::span<const std::uint32_t> list, GridInfo& sub) const {
+  // Splits cell c's `list` into the primitives large in the cell (header:
+  // kLargeSpan) and the others, when the large ones are few (kLargeShare)
+  // and the others' box is at most half the cell's on some axis; else
+  // every primitive is small. Both keep list order.
+  void split_large(const GridInfo& info, std::uint32_t c, std::span<const std::uint32_t> list,
+                   std::vector<std::uint32_t>& small, std::vector<std::uint32_t>& large) const {
+    small.assign(list.begin(), list.end());
+    large.clear();
+    const Bounds3 cell = cell_box(info, c);
+    const Vec3 ce = cell.extent();
+    std::vector<std::uint32_t> s;
+    Bounds3 small_box;
+    for (const std::uint32_t id : list) {
+      const Bounds3 pb = db_.primitives[id].bounds();
+      int spanned = 0;
+      for (int a = 0; a < 3; ++a) {
+        const double lo = std::max(double(pb.lower[a]), double(cell.lower[a]));
+        const double hi = std::min(double(pb.upper[a]), double(cell.upper[a]));
+        spanned += hi - lo >= kLargeSpan * double(ce[a]);
+      }
+      if (spanned >= 2) {
+        large.push_back(id);
+      } else {
+        s.push_back(id);
+        small_box.extend(pb);
+      }
+    }
+    bool gains = false;
+    for (int a = 0; a < 3; ++a)
+      gains |= double(std::min(small_box.upper[a], cell.upper[a])) - std::max(small_box.lower[a], cell.lower[a]) <=
+               0.5 * double(ce[a]);
+    if (large.empty() || s.empty() || double(large.size()) > kLargeShare * double(list.size()) || !gains) {
+      large.clear();
+      return;
+    }
+    small = std::move(s);
+  }
+
+  // The box of cell c of `info`.
+  static Bounds3 cell_box(const GridInfo& info, std::uint32_t c) {
     const int x = int(c % std::uint32_t(info.res[0]));
     const int y = int(c / std::uint32_t(info.res[0]) % std::uint32_t(info.res[1]));
     const int z = int(c / (std::uint32_t(info.res[0]) * std::uint32_t(info.res[1])));
-    sub.bounds = tight_box(info, info.cell_bounds(x, y, z), list);
+    return info.cell_bounds(x, y, z);
+  }
+
+  // The sub-grid cell c of `info` would hold over `list`, if one pays
+  // (header comment: the cost model); false keeps the cell a leaf.
+  bool make_sub_grid(const GridInfo& info, std::uint32_t c, std::span<const std::uint32_t> list, GridInfo& sub) const {
+    sub.bounds = tight_box(info, cell_box(info, c), list);
     const double n = double(list.size());
     choose_adaptive_resolution(sub.bounds, double(params_.density) * n, kMaxSubGridResolution, sub.res);
     const double m = double(sub.cell_count());

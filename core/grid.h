@@ -149,10 +149,17 @@ struct GridInfo {
 /// (the leaf is then a placeholder listing nothing, never visited). So the
 /// top grid's cell c is leaf c, and the walk reads an entry only for a top
 /// cell that Grid::top_sub_grid_bits marks.
+///
+/// Large primitives beside a sub-grid: where a few of a cell's primitives
+/// span most of it (a floor or a wall under a mesh), they stay out of the
+/// sub-grid, which then covers only the others' box, and are listed in one
+/// more leaf, first_entry + info.cell_count(), right after the sub-grid's
+/// cells (large_list). A walk tests that leaf before the sub-grid's cells.
 struct SubGrid {
   GridInfo info;                 ///< bounds: the part of the parent cell its primitives reach (within GridInfo::cell_bounds)
   std::uint32_t first_entry = 0;  ///< its cells' entries in Grid::cell_entries
   std::uint32_t level = 0;        ///< 0 for the top grid, parent's level + 1 below
+  bool large_list = false;        ///< leaf first_entry + info.cell_count() lists the parent cell's large primitives
 };
 /// Tag bit of a cell entry naming a sub-grid (else the entry is a leaf cell id).
 inline constexpr std::uint32_t kSubGridEntry = 0x80000000u;
@@ -164,6 +171,13 @@ struct SubGridTables {
   std::span<const std::uint32_t> cell_entries;  ///< Grid::cell_entries
   std::span<const std::uint64_t> top_sub_grid_bits;  ///< Grid::top_sub_grid_bits
 };
+
+/// Adaptive: a primitive is large in a cell when, clipped to the cell, it
+/// spans at least this share of the cell on two axes or more.
+inline constexpr double kLargeSpan = 0.5;
+/// Adaptive: the large primitives are set beside a sub-grid only when they
+/// are at most this share of the cell's primitives.
+inline constexpr double kLargeShare = 1.0 / 16.0;
 
 /// A built grid: GridInfo plus, for leaf cell c, the primitive ids
 /// cell_primitives[cell_start[c] .. cell_start[c+1]), ascending.

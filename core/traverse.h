@@ -435,6 +435,9 @@ template <class View, class Visit>
                                                                    const Ray& ray, const Vec3& inv_v, Visit visit) {
   const SubGrid g = view.sub_grid(index);
   bool stopped = false;
+  // The cell's large primitives first (SubGrid): a hit there ends no walk
+  // but a shadow ray's, as the sub-grid's cells may hold nearer ones.
+  if (g.large_list && visit(g.first_entry + g.info.cell_count(), -kInfinity) == kStopWalk) return {visit, true};
   walk_grid(g.info, LinearCellOrder{}, ray, inv_v, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
     const std::uint32_t d = visit(g.first_entry + cell, t_exit);
     if (d == kStopWalk) {
@@ -453,14 +456,19 @@ template <class View, class Visit>
 
 /// walk_cells below one grid of an adaptive hierarchy: walk_grid over
 /// sub_grids[index]; a cell holding a sub-grid is walked in turn (its
-/// bounds are the cell's box, so the inner walk covers the ray's piece in
-/// that cell). The visitor comes in and goes back by value (see walk_cells).
+/// bounds hold every point of the cell that the primitives it lists reach,
+/// so the inner walk covers the ray's piece that can hit them; the cell's
+/// large primitives, if any, are visited first). The visitor comes in and
+/// goes back by value (see walk_cells).
 template <class Visit>
 [[gnu::noinline]] SubWalk<Visit> walk_sub_grid(const SubGridTables& t, std::uint32_t index,
                                                              const Ray& ray, const Vec3& inv_v, Visit visit) {
   const SubGrid& g = t.sub_grids[index];
   const std::uint32_t* entries = t.cell_entries.data() + g.first_entry;
   bool stopped = false;
+  // The cell's large primitives first (SubGrid): a hit there ends no walk
+  // but a shadow ray's, as the sub-grid's cells may hold nearer ones.
+  if (g.large_list && visit(g.first_entry + g.info.cell_count(), -kInfinity) == kStopWalk) return {visit, true};
   walk_grid(g.info, LinearCellOrder{}, ray, inv_v, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
     const std::uint32_t e = entries[cell];
     if (e & kSubGridEntry) [[unlikely]] {

@@ -32,20 +32,24 @@ std::vector<std::uint32_t> cost_bins_of_cells(const core::Grid& grid, const Came
   std::vector<std::uint32_t> bin(grid.leaf_cells());
   // The cells of one grid (a uniform grid, or one of an adaptive grid's
   // SubGrids): cell c is leaf first + c (core/grid.h, SubGrid).
+  auto bin_of = [&](const core::Vec3& centre) {
+    const int bx = std::clamp(int(std::floor((frame.x(centre) - e.x0) * sx)), 0, cost.nx - 1);
+    const int by = std::clamp(int(std::floor((frame.y(centre) - e.y0) * sy)), 0, cost.ny - 1);
+    return std::uint32_t(by * cost.nx + bx);
+  };
   auto bin_cells = [&](const core::GridInfo& g, std::uint32_t first) {
     for (int z = 0; z < g.res[2]; ++z)
       for (int y = 0; y < g.res[1]; ++y)
-        for (int x = 0; x < g.res[0]; ++x) {
-          const core::Vec3 centre = g.cell_bounds(x, y, z).center();
-          const int bx = std::clamp(int(std::floor((frame.x(centre) - e.x0) * sx)), 0, cost.nx - 1);
-          const int by = std::clamp(int(std::floor((frame.y(centre) - e.y0) * sy)), 0, cost.ny - 1);
-          bin[first + g.cell_index(x, y, z)] = std::uint32_t(by * cost.nx + bx);
-        }
+        for (int x = 0; x < g.res[0]; ++x) bin[first + g.cell_index(x, y, z)] = bin_of(g.cell_bounds(x, y, z).center());
   };
   if (grid.sub_grids.empty()) {
     bin_cells(grid.info, 0);
   } else {
-    for (const core::SubGrid& g : grid.sub_grids) bin_cells(g.info, g.first_entry);
+    for (const core::SubGrid& g : grid.sub_grids) {
+      bin_cells(g.info, g.first_entry);
+      // The large primitives beside a sub-grid: charged where the sub-grid is.
+      if (g.large_list) bin[g.first_entry + g.info.cell_count()] = bin_of(g.info.bounds.center());
+    }
   }
   return bin;
 }

@@ -285,7 +285,8 @@ PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, s
   }
   // Sub-grid records: each grid's description and its cell 0's key.
   for (std::uint32_t i = 0; i < l.sub_grids; ++i) {
-    const PagedSubGrid r{grid.sub_grids[i].info, l.entry_key(g, grid.sub_grids[i].first_entry)};
+    const core::SubGrid& s = grid.sub_grids[i];
+    const PagedSubGrid r{s.info, l.entry_key(g, s.first_entry) | (s.large_list ? kLargeListKey : 0u)};
     std::memcpy(base + l.sub_grid_address(i), &r, sizeof r);
   }
   // Primitives, then vertex normals.

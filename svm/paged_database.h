@@ -118,8 +118,12 @@ const char* segment_name(Segment s);
 /// straddles a page.
 struct PagedSubGrid {
   core::GridInfo info;
+  /// The directory key of its cell 0, | kLargeListKey when the key after
+  /// its cells lists the parent cell's large primitives (core::SubGrid).
   std::uint32_t first_key = 0;
 };
+/// PagedSubGrid::first_key's flag bit (directory keys fit 31 bits).
+inline constexpr std::uint32_t kLargeListKey = 0x80000000u;
 static_assert(sizeof(PagedSubGrid) == 64, "a sub-grid record is a power of two not above the smallest page");
 
 /// Smallest page: one Primitive record.

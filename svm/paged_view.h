@@ -67,7 +67,7 @@ class PagedView {
   core::SubGrid sub_grid(std::uint32_t i) const {
     PagedSubGrid r;
     std::memcpy(&r, pager_->at(layout_.sub_grid_address(i)), sizeof r);
-    return core::SubGrid{r.info, r.first_key, 0};
+    return core::SubGrid{r.info, r.first_key & ~kLargeListKey, 0, (r.first_key & kLargeListKey) != 0};
   }
   /// visit_cell's and for_each_in_cell's `cell` is the cell's directory
   /// key: its index in the linear order, its bricked key in the other.

@@ -66,19 +66,30 @@ void check_random_rays(const Built& b, std::uint64_t seed, int rays, const Bound
   rc.require_clean();
 }
 
-// Every primitive listed in a leaf of sub-grid `index` or of the grids below it.
+// The primitives leaf `leaf` lists.
+std::vector<std::uint32_t> leaf_list(const Grid& grid, std::uint32_t leaf) {
+  return {grid.cell_primitives.begin() + grid.cell_start[leaf], grid.cell_primitives.begin() + grid.cell_start[leaf + 1]};
+}
+
+// Every primitive listed in a cell of sub-grid `index` or below it (the
+// large primitives beside its own cells, SubGrid::large_list, excepted).
 std::vector<std::uint32_t> primitives_below(const Grid& grid, std::uint32_t index) {
   std::vector<std::uint32_t> ids;
   const SubGrid& g = grid.sub_grids[index];
   for (std::uint32_t c = 0; c < g.info.cell_count(); ++c) {
     const std::uint32_t e = grid.cell_entries[g.first_entry + c];
+    std::vector<std::uint32_t> more;
     if (e & kSubGridEntry) {
-      const std::vector<std::uint32_t> below = primitives_below(grid, e & ~kSubGridEntry);
-      ids.insert(ids.end(), below.begin(), below.end());
+      const SubGrid& child = grid.sub_grids[e & ~kSubGridEntry];
+      more = primitives_below(grid, e & ~kSubGridEntry);
+      if (child.large_list) {
+        const std::vector<std::uint32_t> large = leaf_list(grid, child.first_entry + child.info.cell_count());
+        more.insert(more.end(), large.begin(), large.end());
+      }
     } else {
-      ids.insert(ids.end(), grid.cell_primitives.begin() + grid.cell_start[e],
-                 grid.cell_primitives.begin() + grid.cell_start[e + 1]);
+      more = leaf_list(grid, e);
     }
+    ids.insert(ids.end(), more.begin(), more.end());
   }
   return ids;
 }
@@ -125,6 +136,42 @@ TEST_CASE("adaptive grid: a small mesh on a floor 300x its size agrees with brut
   CHECK(deep_in_z);
   check_random_rays(b, 5, 3000, Bounds3{{-3, -3, -1.0f}, {3, 3, 3}});
   check_random_rays(b, 6, 1000, Bounds3{{-250, -250, 5.0f}, {250, 250, 50}});
+}
+
+TEST_CASE("adaptive grid: a floor under a mesh stays beside the mesh's sub-grid, whose box is the mesh's") {
+  const Built b(mesh_on_floor(13, 600, 300.0f), adaptive());
+  // The floor's two triangles: the primitives wider than 100.
+  std::vector<std::uint32_t> floor;
+  for (std::uint32_t id = 0; id < b.db.primitives.size(); ++id)
+    if (b.db.primitives[id].bounds().extent().x > 100) floor.push_back(id);
+  REQUIRE(floor.size() == 2);
+  int beside = 0;
+  for (const SubGrid& g : b.grid.sub_grids) {
+    if (!g.large_list) continue;
+    ++beside;
+    CHECK(leaf_list(b.grid, g.first_entry + g.info.cell_count()) == floor);
+    // Above the floor (z = -1.5) and about as wide as the mesh (~2).
+    CHECK(g.info.bounds.lower.z > -1.5f);
+    CHECK(g.info.bounds.extent().x < 3.0f);
+    CHECK(g.info.bounds.extent().y < 3.0f);
+  }
+  CHECK(beside == 1);
+  // Rays from around the mesh (many hit the floor near it, under the
+  // sub-grid's box), from far above, from below the floor, and segments
+  // ending before, on and beyond the mesh (shadow rays).
+  // (Origins 0.5 above the floor, as above: Embree's float test on the
+  // 600-unit floor errs by ~1e-5 in t.)
+  check_random_rays(b, 14, 3000, Bounds3{{-3, -3, -1.0f}, {3, 3, 3}});
+  check_random_rays(b, 15, 1000, Bounds3{{-250, -250, 5.0f}, {250, 250, 50}});
+  check_random_rays(b, 16, 500, Bounds3{{-3, -3, -5.0f}, {3, 3, -2.0f}});
+  RayChecker rc(b);
+  Rng rng(17);
+  for (int i = 0; i < 3000; ++i) {
+    const Vec3 o = random_in(rng, Bounds3{{-3, -3, -1.0f}, {3, 3, 3}});
+    const Vec3 to = random_in(rng, Bounds3{{-2, -2, -1.6f}, {2, 2, 1}});
+    if (length(to - o) > 0) rc.check(Ray{o, to - o, 0.0f, uniform(rng, 0.1f, 1.5f)});
+  }
+  rc.require_clean();
 }
 
 TEST_CASE("adaptive grid: random triangle soups with spheres and cones agree with brute force and Embree") {
@@ -343,6 +390,12 @@ TEST_CASE("adaptive grid: every leaf cell is reached exactly once from the top g
         const int z = int(c / (std::uint32_t(s.info.res[0]) * std::uint32_t(s.info.res[1])));
         const Bounds3 cb = s.info.cell_bounds(x, y, z);
         CHECK(child.level == s.level + 1);
+        if (child.large_list) {  // its leaf after its cells
+          REQUIRE(child.first_entry + child.info.cell_count() < seen.size());
+          ++seen[child.first_entry + child.info.cell_count()];
+          CHECK(b.grid.cell_entries[child.first_entry + child.info.cell_count()] ==
+                child.first_entry + child.info.cell_count());
+        }
         for (int a = 0; a < 3; ++a) {
           CHECK(child.info.bounds.lower[a] >= cb.lower[a]);
           CHECK(child.info.bounds.upper[a] <= cb.upper[a]);

@@ -342,7 +342,8 @@ TEST_CASE("paged database: an adaptive grid pages the top directory, the sub-gri
           REQUIRE((a & (ps - 1)) + 64 <= ps);
           std::memcpy(&r, im.pages.data() + a, sizeof r);
           CHECK(std::memcmp(&r.info, &g.sub_grids[i].info, sizeof r.info) == 0);
-          CHECK(r.first_key == l.entry_key(g.info, g.sub_grids[i].first_entry));
+          CHECK((r.first_key & ~kLargeListKey) == l.entry_key(g.info, g.sub_grids[i].first_entry));
+          CHECK(((r.first_key & kLargeListKey) != 0) == g.sub_grids[i].large_list);
         }
         CHECK(l.object_bytes == b.db.primitives.size() * 64 + b.db.vertex_normals.size() * 36 +
                                     std::size_t(l.cells) * 4 + std::size_t(l.sub_grids) * 64 +

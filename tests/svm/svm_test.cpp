@@ -430,7 +430,8 @@ TEST_CASE("svm: under the model clock with the ipsc2 network every node count fi
 TEST_CASE("svm over an adaptive grid: paged sub-grids give the sequential image for every order, packing, node count and cache") {
   // A coarse top grid with sub-grids from 4 primitives (two levels below
   // the top), and the default adaptive grid on a small mesh standing on a
-  // floor 300 times its size (sub-grids where the mesh is).
+  // floor 300 times its size (sub-grids where the mesh is, the floor
+  // beside one of them: core::SubGrid::large_list).
   core::GridParams deep;
   deep.kind = core::GridKind::kAdaptive;
   deep.top_density = 1.0f / 16.0f;
@@ -449,9 +450,11 @@ TEST_CASE("svm over an adaptive grid: paged sub-grids give the sequential image 
     b.db = core::make_database(s);
     scenes.emplace_back(std::move(b), normal);
   }
+  int large_lists = 0;
   for (auto& [b, gp] : scenes) {
     b.grid = core::build_grid(b.db, gp);
     REQUIRE(b.grid.sub_grid_count() > 0);
+    for (const core::SubGrid& g : b.grid.sub_grids) large_lists += g.large_list;
     core::RenderParams rp = small_params(1, 0).render;
     const core::RenderResult seq = core::render(b.db, b.grid, rp);
     const core::RenderResult uniform = core::render(b.db, core::build_grid(b.db), rp);
@@ -478,4 +481,5 @@ TEST_CASE("svm over an adaptive grid: paged sub-grids give the sequential image 
             if (n > 1 && cache == 1) CHECK(r.pager_total().segment_misses[std::size_t(Segment::kSubGrids)] > 0);
           }
   }
+  CHECK(large_lists > 0);
 }
