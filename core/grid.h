@@ -37,7 +37,12 @@
 // part of its box that its primitives reach (their bounds' union, grown by
 // the cell inflation and clipped to the cell: a mesh in a stadium-sized
 // top cell gets its sub-cells over the mesh, and a ray that misses that
-// box costs one slab test). Cost model, per ray crossing a cell that lists n
+// box costs one slab test). A floor under that mesh would stretch the box
+// over the whole cell: a few primitives large in the cell (kLargeSpan,
+// kLargeShare) are kept out of the sub-grid, in a leaf of their own that
+// the walk tests before the sub-grid (SubGrid::large_list), when the
+// others' box is then at most half the cell's on some axis; C_sub below
+// gains their count, tested once per ray (mailbox). Cost model, per ray crossing a cell that lists n
 // primitives (times in units of one primitive test):
 //   leaf:      C_leaf = n
 //   sub-grid:  C_sub  ~ C_enter + k * (C_step + r),
