@@ -596,19 +596,26 @@ def section_accel(src):
     ])
 
 
-def section_sphere_blocks(src):
-    rows = read_csv(os.path.join(RESULTS, "sphere-blocks-ab-2core.csv"))
+def ab_pairs(name):
+    """docs/ab_pair.sh's rows in results/NAME, per scene in file order: (scene, old runs, new runs, the medians
+    of grid/Embree old and new, the median of the paired old/new grid rays/s, i.e. new/old grid time)."""
+    rows = read_csv(os.path.join(RESULTS, name))
     runs = {}
     for r in rows:
         runs.setdefault((r["scene"], r["binary"]), {})[r["round"]] = r
-    scenes = list(dict.fromkeys(r["scene"] for r in rows))
-    body = []
-    for scene in scenes:
+    out = []
+    for scene in dict.fromkeys(r["scene"] for r in rows):
         old, new = runs[(scene, "old")], runs[(scene, "new")]
         paired = [float(old[k]["grid_rays_per_s"]) / float(new[k]["grid_rays_per_s"]) for k in old if k in new]
-        body.append([scene, f"{median(float(r['grid_over_embree_time']) for r in old.values()):.2f}",
-                     f"{median(float(r['grid_over_embree_time']) for r in new.values()):.2f}",
-                     f"{median(paired):.2f}", thousands(int(float(next(iter(new.values()))["packed_sphere_blocks"])))])
+        out.append((scene, list(old.values()), list(new.values()),
+                    median(float(r["grid_over_embree_time"]) for r in old.values()),
+                    median(float(r["grid_over_embree_time"]) for r in new.values()), median(paired)))
+    return out
+
+
+def section_sphere_blocks(src):
+    body = [[scene, f"{ro:.2f}", f"{rn:.2f}", f"{paired:.2f}", thousands(int(float(new[0]["packed_sphere_blocks"])))]
+            for scene, _, new, ro, rn, paired in ab_pairs("sphere-blocks-ab-2core.csv")]
     return "\n".join([
         "## Packed sphere cells",
         "",
@@ -629,21 +636,10 @@ def section_sphere_blocks(src):
 
 
 def section_subgrid_box(src):
-    rows = read_csv(os.path.join(RESULTS, "subgrid-box-ab-2core.csv"))
-    runs = {}
-    for r in rows:
-        runs.setdefault((r["scene"], r["binary"]), {})[r["round"]] = r
-    scenes = list(dict.fromkeys(r["scene"] for r in rows))
-    body = []
-    for scene in scenes:
-        old, new = runs[(scene, "old")], runs[(scene, "new")]
-        paired = [float(old[k]["grid_rays_per_s"]) / float(new[k]["grid_rays_per_s"]) for k in old if k in new]
-        first_old, first_new = next(iter(old.values())), next(iter(new.values()))
-        body.append([scene, f"{median(float(r['grid_over_embree_time']) for r in old.values()):.2f}",
-                     f"{median(float(r['grid_over_embree_time']) for r in new.values()):.2f}",
-                     f"{median(paired):.2f}",
-                     f"{float(first_old['tests_per_ray']):.1f} / {float(first_new['tests_per_ray']):.1f}",
-                     f"{float(first_old['cells_per_ray']):.1f} / {float(first_new['cells_per_ray']):.1f}"])
+    body = [[scene, f"{ro:.2f}", f"{rn:.2f}", f"{paired:.2f}",
+             f"{float(old[0]['tests_per_ray']):.1f} / {float(new[0]['tests_per_ray']):.1f}",
+             f"{float(old[0]['cells_per_ray']):.1f} / {float(new[0]['cells_per_ray']):.1f}"]
+            for scene, old, new, ro, rn, paired in ab_pairs("subgrid-box-ab-2core.csv")]
     return "\n".join([
         "## Sub-grids over their primitives' box",
         "",
