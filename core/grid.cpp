@@ -532,7 +532,7 @@ class AdaptiveBuilder {
     large.clear();
     const Bounds3 cell = cell_box(info, c);
     const Vec3 ce = cell.extent();
-    std::vector<std::uint32_t> s;
+    std::vector<std::uint32_t> others;
     Bounds3 small_box;
     for (const std::uint32_t id : list) {
       const Bounds3 pb = db_.primitives[id].bounds();
@@ -545,7 +545,7 @@ class AdaptiveBuilder {
       if (spanned >= 2) {
         large.push_back(id);
       } else {
-        s.push_back(id);
+        others.push_back(id);
         small_box.extend(pb);
       }
     }
@@ -553,11 +553,11 @@ class AdaptiveBuilder {
     for (int a = 0; a < 3; ++a)
       gains |= double(std::min(small_box.upper[a], cell.upper[a])) - std::max(small_box.lower[a], cell.lower[a]) <=
                0.5 * double(ce[a]);
-    if (large.empty() || s.empty() || double(large.size()) > kLargeShare * double(list.size()) || !gains) {
+    if (large.empty() || others.empty() || double(large.size()) > kLargeShare * double(list.size()) || !gains) {
       large.clear();
       return;
     }
-    small = std::move(s);
+    small = std::move(others);
   }
 
   // The box of cell c of `info`.

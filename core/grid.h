@@ -161,7 +161,8 @@ struct GridInfo {
 /// more leaf, first_entry + info.cell_count(), right after the sub-grid's
 /// cells (large_list). A walk tests that leaf before the sub-grid's cells.
 struct SubGrid {
-  GridInfo info;                 ///< bounds: the part of the parent cell its primitives reach (within GridInfo::cell_bounds)
+  /// bounds: the part of the parent cell its primitives reach (within GridInfo::cell_bounds)
+  GridInfo info;
   std::uint32_t first_entry = 0;  ///< its cells' entries in Grid::cell_entries
   std::uint32_t level = 0;        ///< 0 for the top grid, parent's level + 1 below
   bool large_list = false;        ///< leaf first_entry + info.cell_count() lists the parent cell's large primitives

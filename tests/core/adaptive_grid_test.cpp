@@ -68,7 +68,8 @@ void check_random_rays(const Built& b, std::uint64_t seed, int rays, const Bound
 
 // The primitives leaf `leaf` lists.
 std::vector<std::uint32_t> leaf_list(const Grid& grid, std::uint32_t leaf) {
-  return {grid.cell_primitives.begin() + grid.cell_start[leaf], grid.cell_primitives.begin() + grid.cell_start[leaf + 1]};
+  const auto list = grid.cell_primitives.begin();
+  return {list + grid.cell_start[leaf], list + grid.cell_start[leaf + 1]};
 }
 
 // Every primitive listed in a cell of sub-grid `index` or below it (the
