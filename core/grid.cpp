@@ -528,7 +528,6 @@ class AdaptiveBuilder {
   // every primitive is small. Both keep list order.
   void split_large(const GridInfo& info, std::uint32_t c, std::span<const std::uint32_t> list,
                    std::vector<std::uint32_t>& small, std::vector<std::uint32_t>& large) const {
-    small.assign(list.begin(), list.end());
     large.clear();
     const Bounds3 cell = cell_box(info, c);
     const Vec3 ce = cell.extent();
@@ -555,9 +554,10 @@ class AdaptiveBuilder {
                0.5 * double(ce[a]);
     if (large.empty() || others.empty() || double(large.size()) > kLargeShare * double(list.size()) || !gains) {
       large.clear();
-      return;
+      small.assign(list.begin(), list.end());
+    } else {
+      small = std::move(others);
     }
-    small = std::move(others);
   }
 
   // The box of cell c of `info`.

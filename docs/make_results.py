@@ -613,53 +613,59 @@ def ab_pairs(name):
     return out
 
 
-def section_sphere_blocks(src):
-    body = [[scene, f"{ro:.2f}", f"{rn:.2f}", f"{paired:.2f}", thousands(int(float(new[0]["packed_sphere_blocks"])))]
-            for scene, _, new, ro, rn, paired in ab_pairs("sphere-blocks-ab-2core.csv")]
+def ab_section(src, title, what, name, headers, body, notes):
+    """A results section over docs/ab_pair.sh's rows in results/NAME: what changed, the command, the table
+    (medians over the rounds, the time ratio paired by round) and the notes under it."""
     return "\n".join([
-        "## Packed sphere cells",
+        f"## {title}",
         "",
+        what + " " + src.describe(name) + " Medians over the rounds; the time ratio pairs the two builds' runs of "
+        "one round:",
+        "",
+        table(headers, body),
+        "",
+    ] + notes)
+
+
+def section_sphere_blocks(src):
+    name = "sphere-blocks-ab-2core.csv"
+    body = [[scene, f"{ro:.2f}", f"{rn:.2f}", f"{paired:.2f}", thousands(int(float(new[0]["packed_sphere_blocks"])))]
+            for scene, _, new, ro, rn, paired in ab_pairs(name)]
+    return ab_section(
+        src, "Packed sphere cells",
         "A cell listing only spheres keeps them in SIMD blocks of 8 in the in-process views (a float cull, then the "
         "exact test), capped at four times the blocks that would hold each sphere once. The build without them "
-        "against the build with them: " + src.describe("sphere-blocks-ab-2core.csv") + " Medians over the rounds; "
-        "the time ratio pairs the two builds' runs of one round:",
-        "",
-        table(["scene", "grid / Embree, lists", "grid / Embree, sphere blocks", "grid time, blocks / lists",
-               "sphere blocks"], body),
-        "",
-        "- Scenes without a cell of spheres alone (tessellated balls, teapot, rings; lattice mixes spheres with "
-        "cylinders) trace as before, within this machine's noise.",
-        "- shells' large overlapping spheres are listed in many cells each (`raynode scene info shells_5.nff.gz "
-        "--grid`: 1,340,839 references for 5,761 spheres): packed without the cap, their copies outgrew the cache "
-        "and traced slower than the lists; under it, shells keeps its lists' speed.",
-    ])
+        "against the build with them:", name,
+        ["scene", "grid / Embree, lists", "grid / Embree, sphere blocks", "grid time, blocks / lists",
+         "sphere blocks"], body,
+        ["- Scenes without a cell of spheres alone (tessellated balls, teapot, rings; lattice mixes spheres with "
+         "cylinders) trace as before, within this machine's noise.",
+         "- shells' large overlapping spheres are listed in many cells each (`raynode scene info shells_5.nff.gz "
+         "--grid`: 1,340,839 references for 5,761 spheres): packed without the cap, their copies outgrew the cache "
+         "and traced slower than the lists; under it, shells keeps its lists' speed."])
 
 
 def section_subgrid_box(src):
+    name = "subgrid-box-ab-2core.csv"
     body = [[scene, f"{ro:.2f}", f"{rn:.2f}", f"{paired:.2f}",
              f"{float(old[0]['tests_per_ray']):.1f} / {float(new[0]['tests_per_ray']):.1f}",
              f"{float(old[0]['cells_per_ray']):.1f} / {float(new[0]['cells_per_ray']):.1f}"]
-            for scene, old, new, ro, rn, paired in ab_pairs("subgrid-box-ab-2core.csv")]
-    return "\n".join([
-        "## Sub-grids over their primitives' box",
-        "",
+            for scene, old, new, ro, rn, paired in ab_pairs(name)]
+    return ab_section(
+        src, "Sub-grids over their primitives' box",
         "A sub-grid covers the part of its cell that its primitives reach, and a few primitives spanning most of "
         "the cell (a floor under a mesh) stay beside it in a list of their own, tested first. Sub-grids over "
-        "their whole cell against this: " + src.describe("subgrid-box-ab-2core.csv") + " Medians over the rounds; "
-        "the time ratio pairs the two builds' runs of one round:",
-        "",
-        table(["scene", "grid / Embree, whole cells", "grid / Embree, primitives' box", "grid time, new / old",
-               "tests per ray, old / new", "cells per ray, old / new"], body),
-        "",
-        "- Scenes whose adaptive grid refines no cell (teapot, tetra, rings, mount, gears, lattice, sombrero) trace "
-        "the same cells and tests; their time ratios show this machine's noise. So does shells' ratio: it tests "
-        "a few more spheres per ray than before, not fewer.",
-        "- On the 1000x floors each mesh's sub-grids had spread over their whole top cells, the floor spanning "
-        "them; now they cover the mesh, with the floor's two triangles beside them. On the 100x floor (tf400) "
-        "the teapot already filled its sub-grid's cells, and little changes.",
-        "- The scanned mesh in a room (scan_room) keeps about 40 tests per ray: its top cells of fewer than 128 "
-        "triangles stay leaves.",
-    ])
+        "their whole cell against this:", name,
+        ["scene", "grid / Embree, whole cells", "grid / Embree, primitives' box", "grid time, new / old",
+         "tests per ray, old / new", "cells per ray, old / new"], body,
+        ["- Scenes whose adaptive grid refines no cell (teapot, tetra, rings, mount, gears, lattice, sombrero) "
+         "trace the same cells and tests; their time ratios show this machine's noise. So does shells' ratio: it "
+         "tests a few more spheres per ray than before, not fewer.",
+         "- On the 1000x floors each mesh's sub-grids had spread over their whole top cells, the floor spanning "
+         "them; now they cover the mesh, with the floor's two triangles beside them. On the 100x floor (tf400) "
+         "the teapot already filled its sub-grid's cells, and little changes.",
+         "- The scanned mesh in a room (scan_room) keeps about 40 tests per ray: its top cells of fewer than 128 "
+         "triangles stay leaves."])
 
 
 def section_quality(src):
