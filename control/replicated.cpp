@@ -37,7 +37,6 @@ struct NodeState {
   ArenaArray<std::uint8_t> empty_distance;
   ArenaArray<core::SubGrid> sub_grids;         ///< adaptive grid only
   ArenaArray<std::uint32_t> cell_entries;      ///< adaptive grid only
-  ArenaArray<std::uint64_t> top_sub_grid_bits;  ///< adaptive grid only
   ArenaArray<core::Light> lights;
   PixelBatch batch;  ///< outgoing pixel blocks (one message's payload)
   core::ShadingScratch* scratch = nullptr;
@@ -108,7 +107,6 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
     s->empty_distance = copy_to_arena(a, host_arrays.empty_distance, "the database copy (empty-space distances)");
     s->sub_grids = copy_to_arena(a, host_arrays.sub_grids, "the database copy (sub-grids)");
     s->cell_entries = copy_to_arena(a, host_arrays.cell_entries, "the database copy (sub-grid cell entries)");
-    s->top_sub_grid_bits = copy_to_arena(a, host_arrays.top_sub_grid_bits, "the database copy (top cells' sub-grid bits)");
     s->lights = copy_to_arena(a, std::span<const core::Light>(db.lights), "the lights");
     s->batch = PixelBatch(a, m.max_payload);
     s->scratch = a.create<core::ShadingScratch>("its tracing scratch");
@@ -122,7 +120,6 @@ ReplicatedResult render_replicated(const core::Database& db, const core::Grid& g
                               s.cell_start.span(), s.cell_primitives.span(), s.empty_distance.span(), s.grid};
     mine.sub_grids = s.sub_grids.span();
     mine.cell_entries = s.cell_entries.span();
-    mine.top_sub_grid_bits = s.top_sub_grid_bits.span();
     const core::ShadingContext shading = core::make_shading_context(
         std::span<const core::Light>(s.lights.span()), s.background, s.render.max_depth, s.render.min_weight,
         s.render.shadow_rays);

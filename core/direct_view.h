@@ -34,7 +34,6 @@ struct DatabaseArrays {
   std::span<const SphereBlock> sphere_blocks = {};         ///< CellBlocks::sphere_blocks
   std::span<const SubGrid> sub_grids = {};          ///< Grid::sub_grids (adaptive), or empty: uniform
   std::span<const std::uint32_t> cell_entries = {};  ///< Grid::cell_entries (adaptive), or empty
-  std::span<const std::uint64_t> top_sub_grid_bits = {};  ///< Grid::top_sub_grid_bits (adaptive), or empty
 
   /// The arrays of a host database and grid, and the grid's packed cells
   /// if `blocks` is given (built from the same db and grid).
@@ -43,7 +42,6 @@ struct DatabaseArrays {
                      grid.empty_distance, grid.info};
     a.sub_grids = grid.sub_grids;
     a.cell_entries = grid.cell_entries;
-    a.top_sub_grid_bits = grid.top_sub_grid_bits;
     if (blocks) {
       a.block_start = blocks->start;
       a.blocks = blocks->blocks;
@@ -56,7 +54,8 @@ struct DatabaseArrays {
   std::size_t bytes() const {
     return primitives.size_bytes() + vertex_normals.size_bytes() + materials.size_bytes() + cell_start.size_bytes() +
            cell_primitives.size_bytes() + empty_distance.size_bytes() + block_start.size_bytes() +
-           blocks.size_bytes() + sphere_block_start.size_bytes() + sphere_blocks.size_bytes() + sub_grids.size_bytes() + cell_entries.size_bytes() + top_sub_grid_bits.size_bytes();
+           blocks.size_bytes() + sphere_block_start.size_bytes() + sphere_blocks.size_bytes() +
+           sub_grids.size_bytes() + cell_entries.size_bytes();
   }
 };
 
@@ -69,11 +68,12 @@ class DirectView {
 
   const GridInfo& grid_info() const { return a_.grid; }
   /// The adaptive grid's sub-grids (empty for a uniform grid); the cells
-  /// below are then leaf cells (Grid).
-  SubGridTables sub_grid_tables() const { return {a_.sub_grids, a_.cell_entries, a_.top_sub_grid_bits}; }
+  /// below are then leaf cells (Grid), and a cell visit returns
+  /// kSubGridCode + i for a cell holding sub-grid i.
+  SubGridTables sub_grid_tables() const { return {a_.sub_grids, a_.cell_entries}; }
   template <class F>
   std::uint32_t for_each_in_cell(std::uint32_t cell, F&& f) const {
-    if (const std::uint32_t d = a_.empty_distance[cell]) return d;
+    if (const std::uint32_t d = a_.empty_distance[cell]) return empty_leaf_code(d, a_.cell_entries.data(), cell);
     const std::uint32_t* p = a_.cell_primitives.data();
     for (std::uint32_t i = a_.cell_start[cell], e = a_.cell_start[cell + 1]; i < e; ++i) f(p[i]);
     return 0;
@@ -83,7 +83,7 @@ class DirectView {
   /// instead of id by id to f.
   template <class F, class P>
   std::uint32_t visit_cell(std::uint32_t cell, F&& f, P&& packed) const {
-    if (const std::uint32_t d = a_.empty_distance[cell]) return d;
+    if (const std::uint32_t d = a_.empty_distance[cell]) return empty_leaf_code(d, a_.cell_entries.data(), cell);
     const std::uint32_t b = a_.cell_start[cell], e = a_.cell_start[cell + 1];
     if (!a_.block_start.empty()) {
       const std::uint32_t k = a_.block_start[cell], k_end = a_.block_start[cell + 1];

@@ -504,7 +504,7 @@ class AdaptiveBuilder {
       if (!refine)
         grid_.cell_primitives.insert(grid_.cell_primitives.end(), list.begin(), list.end());
       grid_.cell_start.push_back(std::uint32_t(grid_.cell_primitives.size()));
-      grid_.empty_distance.push_back(refine ? 0 : local.empty_distance[c]);
+      grid_.empty_distance.push_back(refine ? std::uint8_t(kSubGridMark) : local.empty_distance[c]);
       grid_.cell_entries[first + c] = first + c;
     }
     if (!large.empty()) {
@@ -516,7 +516,6 @@ class AdaptiveBuilder {
     for (const Child& ch : children) {
       const std::uint32_t child = build(ch.info, ch.small, level + 1, ch.large);
       grid_.cell_entries[first + ch.cell] = kSubGridEntry | child;
-      if (level == 0) grid_.top_sub_grid_bits[ch.cell >> 6] |= std::uint64_t(1) << (ch.cell & 63);
     }
     return index;
   }
@@ -652,7 +651,6 @@ Grid build_adaptive_grid(const Database& db, const GridParams& params) {
   set_cell_size(top);
   grid.info = top;
   grid.cell_start.push_back(0);
-  grid.top_sub_grid_bits.assign((std::size_t(top.cell_count()) + 63) / 64, 0);
   std::vector<std::uint32_t> all(db.primitives.size());
   for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
   AdaptiveBuilder(db, params, grid).build(top, all, 0);
@@ -660,7 +658,6 @@ Grid build_adaptive_grid(const Database& db, const GridParams& params) {
   if (grid.sub_grids.size() == 1) {  // nothing refined: the top grid alone, walked without the tables
     grid.sub_grids = {};
     grid.cell_entries = {};
-    grid.top_sub_grid_bits = {};
   }
   return grid;
 }

@@ -124,12 +124,16 @@ inline constexpr int kMaxSubGridResolution = 64;
 /// are at most this fraction of the cell's primitives (cost model above).
 inline constexpr double kSubGridGain = 0.5;
 
-/// Cap of Grid::empty_distance (it is stored in a byte).
-inline constexpr std::uint32_t kMaxEmptyDistance = 255;
-/// A view whose sub-grid tables are paged (has_paged_sub_grids, traverse.h)
-/// returns kSubGridCode + i from its cell visit for a cell that holds
-/// sub-grid i: above every empty-space distance, so one compare tells them apart.
-inline constexpr std::uint32_t kSubGridCode = kMaxEmptyDistance + 1;
+/// Cap of Grid::empty_distance (it is stored in a byte; 255 is kSubGridMark).
+inline constexpr std::uint32_t kMaxEmptyDistance = 254;
+/// Adaptive: Grid::empty_distance of a cell holding a sub-grid (its
+/// placeholder leaf), so that a view's cell visit, which reads that byte
+/// first, tells the cell apart with no other read.
+inline constexpr std::uint32_t kSubGridMark = 255;
+/// A view's cell visit returns kSubGridCode + i for a cell that holds
+/// sub-grid i (traverse.h, walk_cells): above every empty-space distance,
+/// so one compare tells them apart.
+inline constexpr std::uint32_t kSubGridCode = kSubGridMark + 1;
 
 /// O(1) description of a grid: what every node replicates (svm) and what the
 /// traversal needs besides the cell lists.
@@ -151,9 +155,9 @@ struct GridInfo {
 /// sub-grid of one cell of a coarser grid. Its cell c is leaf cell
 /// first_entry + c, and its entry Grid::cell_entries[first_entry + c] is
 /// that leaf id, or kSubGridEntry | the index of the cell's own sub-grid
-/// (the leaf is then a placeholder listing nothing, never visited). So the
-/// top grid's cell c is leaf c, and the walk reads an entry only for a top
-/// cell that Grid::top_sub_grid_bits marks.
+/// (the leaf is then a placeholder listing nothing, its empty distance
+/// kSubGridMark). So the top grid's cell c is leaf c, and the top walk
+/// reads an entry only for a cell whose distance byte is kSubGridMark.
 ///
 /// Large primitives beside a sub-grid: where a few of a cell's primitives
 /// span most of it (a floor or a wall under a mesh), they stay out of the
@@ -175,8 +179,14 @@ inline constexpr std::uint32_t kSubGridEntry = 0x80000000u;
 struct SubGridTables {
   std::span<const SubGrid> sub_grids;        ///< Grid::sub_grids
   std::span<const std::uint32_t> cell_entries;  ///< Grid::cell_entries
-  std::span<const std::uint64_t> top_sub_grid_bits;  ///< Grid::top_sub_grid_bits
 };
+
+/// What a view's cell visit returns for leaf `cell` whose empty distance
+/// byte `d` is not 0: d for an empty leaf, or kSubGridCode + i for a cell
+/// holding sub-grid i (d == kSubGridMark; `cell_entries`: Grid::cell_entries).
+inline std::uint32_t empty_leaf_code(std::uint32_t d, const std::uint32_t* cell_entries, std::uint32_t cell) {
+  return d != kSubGridMark ? d : kSubGridCode + (cell_entries[cell] & ~kSubGridEntry);
+}
 
 /// Adaptive: a primitive is large in a cell when, clipped to the cell, it
 /// spans at least this share of the cell on two axes or more.
@@ -202,18 +212,16 @@ struct Grid {
   /// Per cell: 0 if it lists a primitive, else the Chebyshev distance in
   /// cells to the nearest cell that does (cells beyond the grid count as
   /// empty), capped at kMaxEmptyDistance; 1 for every empty cell when built
-  /// with skip_empty false.
+  /// with skip_empty false; kSubGridMark for an adaptive grid's placeholder
+  /// leaf (a cell holding a sub-grid, which counts as listing primitives in
+  /// its grid's distances).
   std::vector<std::uint8_t> empty_distance;
   std::vector<SubGrid> sub_grids;            ///< adaptive only: [0] the top grid, then sub-grids
   std::vector<std::uint32_t> cell_entries;   ///< adaptive only: per cell of every sub-grid (see SubGrid)
-  /// Adaptive only: bit c (word c / 64, bit c % 64) set when the top grid's
-  /// cell c holds a sub-grid; 1 bit a cell, so the top walk's test stays in
-  /// cache where the entries (4 bytes a cell) would not.
-  std::vector<std::uint64_t> top_sub_grid_bits;
 
   /// What build_grid was asked for. An adaptive build that refines no cell
-  /// keeps only its top grid (sub_grids, cell_entries and
-  /// top_sub_grid_bits empty), which every view walks as a uniform grid.
+  /// keeps only its top grid (sub_grids and cell_entries empty), which
+  /// every view walks as a uniform grid.
   GridKind built_as = GridKind::kUniform;
 
   GridKind kind() const { return built_as; }
@@ -229,8 +237,7 @@ struct Grid {
   std::size_t empty_cells() const;
   std::size_t bytes() const {
     return (cell_start.size() + cell_primitives.size() + cell_entries.size()) * sizeof(std::uint32_t) +
-           empty_distance.size() + sub_grids.size() * sizeof(SubGrid) +
-           top_sub_grid_bits.size() * sizeof(std::uint64_t);
+           empty_distance.size() + sub_grids.size() * sizeof(SubGrid);
   }
 };
 

@@ -508,19 +508,16 @@ inline void walk_cells(const View& view, const Ray& ray, Visit& visit) {
     if (!t.sub_grids.empty()) {
       // The top grid's walk is inlined here, so that its leaves are visited
       // with the caller's hit and counters in registers; only a cell holding
-      // a sub-grid calls out (walk_sub_grid, recursive).
+      // a sub-grid (its visit returns kSubGridCode + i) calls out
+      // (walk_sub_grid, recursive). The top grid's cell c is leaf c (SubGrid).
       const Vec3 inv_v{1.0f / ray.direction.x, 1.0f / ray.direction.y, 1.0f / ray.direction.z};
-      // The top grid's cell c is leaf c (SubGrid); its entry is read only
-      // where the bit says it holds a sub-grid.
-      const std::uint32_t* entries = t.cell_entries.data();
-      const std::uint64_t* bits = t.top_sub_grid_bits.data();
       walk_grid(t.sub_grids[0].info, LinearCellOrder{}, ray, inv_v, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
-        if ((bits[cell >> 6] >> (cell & 63)) & 1) [[unlikely]] {
-          const detail::SubWalk<Visit> below = detail::walk_sub_grid(t, entries[cell] & ~kSubGridEntry, ray, inv_v, visit);
-          visit = below.visit;
-          return below.stopped ? kStopWalk : 0;
-        }
-        return visit(cell, t_exit);
+        const std::uint32_t d = visit(cell, t_exit);
+        if (d < kSubGridCode || d == kStopWalk) [[likely]]
+          return d;
+        const detail::SubWalk<Visit> below = detail::walk_sub_grid(t, d - kSubGridCode, ray, inv_v, visit);
+        visit = below.visit;
+        return below.stopped ? kStopWalk : 0;
       });
       return;
     }
@@ -531,7 +528,7 @@ inline void walk_cells(const View& view, const Ray& ray, Visit& visit) {
       const Vec3 inv_v{1.0f / ray.direction.x, 1.0f / ray.direction.y, 1.0f / ray.direction.z};
       walk_grid(view.grid_info(), cell_order_of(view), ray, inv_v, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
         const std::uint32_t d = visit(cell, t_exit);
-        if (d == kStopWalk || d < kSubGridCode) [[likely]]
+        if (d < kSubGridCode || d == kStopWalk) [[likely]]
           return d;
         const detail::SubWalk<Visit> below = detail::walk_paged_sub_grid(view, d - kSubGridCode, ray, inv_v, visit);
         visit = below.visit;
@@ -589,15 +586,20 @@ struct CellVisit {
     } else {
       empty = view->for_each_in_cell(cell, listed);
     }
-    if constexpr (has_paged_sub_grids<View>) {
-      if (empty >= kSubGridCode) [[unlikely]] {
-        --stats.cells_visited;  // a cell holding a sub-grid: its leaves are counted
-        return empty;
+    if (empty != 0) {
+      // An empty leaf lists nothing that a hit found before could lie in,
+      // beyond rounding, so the walk goes on (a closest hit ends it at the
+      // next leaf that lists something).
+      if constexpr (has_sub_grids<View> || has_paged_sub_grids<View>) {
+        if (empty >= kSubGridCode) [[unlikely]] {
+          --stats.cells_visited;  // a cell holding a sub-grid: its leaves are counted
+          return empty;
+        }
       }
+      stats.empty_jumps += empty >= kMinJumpDistance;
+      return empty;
     }
-    if (found && (kAny || hit.t <= t_exit)) return kStopWalk;
-    stats.empty_jumps += empty >= kMinJumpDistance;
-    return empty;
+    return found && (kAny || hit.t <= t_exit) ? kStopWalk : 0;
   }
 };
 

@@ -172,8 +172,6 @@ std::unique_ptr<NodeState> make_node_state(Arena& a, const RegionDatabase& rd,
     s->sub_grids = nodes::copy_to_arena(a, std::span<const core::SubGrid>(rd.grid.sub_grids), "the region's sub-grids");
     s->cell_entries = nodes::copy_to_arena(a, std::span<const std::uint32_t>(rd.grid.cell_entries),
                                            "the region's sub-grid cell entries");
-    s->top_sub_grid_bits = nodes::copy_to_arena(a, std::span<const std::uint64_t>(rd.grid.top_sub_grid_bits),
-                                                "the region's top cells' sub-grid bits");
   }
   s->shared = nodes::copy_to_arena(a, std::span<const std::uint8_t>(rd.shared), "the shared-primitive flags");
   s->lights = nodes::copy_to_arena(a, std::span<const core::Light>(in.db.lights), "the lights");

@@ -94,7 +94,8 @@ struct LoadEstimate {
 /// index (by * nx + bx) of the cost cell of `cost`'s shape (extent, nx, ny;
 /// its costs are not read) under the leaf's box centre projected on the
 /// screen frame `frame`, clamped to the grid. A placeholder leaf (a cell
-/// holding a sub-grid) gets its cell's centre's bin; it is never visited.
+/// holding a sub-grid) gets its cell's centre's bin; a top grid's
+/// placeholder is charged one step when a walk enters its sub-grid.
 std::vector<std::uint32_t> cost_bins_of_cells(const core::Grid& grid, const CameraFrame& frame, const CostGrid& cost);
 
 /// Traces the subsample of the width x height image of `camera` over `db`

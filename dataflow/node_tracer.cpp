@@ -149,7 +149,6 @@ class NodeTracer {
                            s.cell_start.span(), s.cell_primitives.span(), s.empty_distance.span(), s.grid};
     a.sub_grids = s.sub_grids.span();
     a.cell_entries = s.cell_entries.span();
-    a.top_sub_grid_bits = s.top_sub_grid_bits.span();
     return a;
   }
 

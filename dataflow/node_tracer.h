@@ -63,7 +63,6 @@ struct NodeState {
   nodes::ArenaArray<std::uint8_t> empty_distance;
   nodes::ArenaArray<core::SubGrid> sub_grids;          ///< adaptive local grid only
   nodes::ArenaArray<std::uint32_t> cell_entries;       ///< adaptive local grid only
-  nodes::ArenaArray<std::uint64_t> top_sub_grid_bits;  ///< adaptive local grid only
   nodes::ArenaArray<std::uint8_t> shared;
   nodes::ArenaArray<core::Light> lights;
   nodes::ArenaArray<KdNode> tree;

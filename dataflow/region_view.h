@@ -68,11 +68,12 @@ class RegionView {
       : a_(arrays), shared_(shared), shared_tests_(shared_tests) {}
 
   const core::GridInfo& grid_info() const { return a_.grid; }
-  /// The adaptive local grid's tables (all empty for a uniform grid).
-  core::SubGridTables sub_grid_tables() const { return {a_.sub_grids, a_.cell_entries, a_.top_sub_grid_bits}; }
+  /// The adaptive local grid's tables (all empty for a uniform grid); a
+  /// cell visit returns kSubGridCode + i for a cell holding sub-grid i.
+  core::SubGridTables sub_grid_tables() const { return {a_.sub_grids, a_.cell_entries}; }
   template <class F>
   std::uint32_t for_each_in_cell(std::uint32_t cell, F&& f) const {
-    if (const std::uint32_t d = a_.empty_distance[cell]) return d;
+    if (const std::uint32_t d = a_.empty_distance[cell]) return core::empty_leaf_code(d, a_.cell_entries.data(), cell);
     const std::uint32_t* p = a_.cell_primitives.data();
     for (std::uint32_t i = a_.cell_start[cell], e = a_.cell_start[cell + 1]; i < e; ++i) f(p[i]);
     return 0;

@@ -372,8 +372,9 @@ TEST_CASE("adaptive grid: every leaf cell is reached exactly once from the top g
   for (const SubGrid& s : b.grid.sub_grids)
     for (std::uint32_t c = 0; c < s.info.cell_count(); ++c) {
       const std::uint32_t e = b.grid.cell_entries[s.first_entry + c];
-      // The top grid's cells have a bit each (sub-grids' cells have none).
-      if (s.level == 0) CHECK(bool((b.grid.top_sub_grid_bits[c >> 6] >> (c & 63)) & 1) == bool(e & kSubGridEntry));
+      // A cell holds a sub-grid exactly when its leaf's distance byte is the
+      // mark (the top walk reads no entry but for those).
+      CHECK((b.grid.empty_distance[s.first_entry + c] == kSubGridMark) == bool(e & kSubGridEntry));
       // Every cell is leaf first_entry + c; a cell holding a sub-grid keeps
       // an empty placeholder there.
       REQUIRE(s.first_entry + c < seen.size());
@@ -424,7 +425,6 @@ TEST_CASE("adaptive grid: a build that refines no cell keeps only its top grid, 
   CHECK(a.sub_grid_count() == 0);
   CHECK(a.sub_grids.empty());
   CHECK(a.cell_entries.empty());
-  CHECK(a.top_sub_grid_bits.empty());
   CHECK(a.depth() == 0);
   CHECK(a.leaf_cells() == a.info.cell_count());
   // Same resolution rule on a cube-like scene: the same cells and lists.
