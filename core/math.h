@@ -66,6 +66,11 @@ inline int clamped_floor(double v, int n) {
   const double f = std::floor(v);
   return f >= double(n - 1) ? n - 1 : (f > 0.0 ? static_cast<int>(f) : 0);
 }
+/// clamped_floor of a float, in float (the same result; n - 1 < 2^24).
+inline int clamped_floor(float v, int n) {
+  const float f = std::floor(v);
+  return f >= float(n - 1) ? n - 1 : (f > 0.0f ? static_cast<int>(f) : 0);
+}
 /// Unit vector along a for every finite non-zero a: normalize(a), bit for
 /// bit, when |a|^2 is a normal float; else a divided by its largest
 /// magnitude first, so that |a|^2 neither overflows (|a| beyond ~1.8e19,

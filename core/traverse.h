@@ -587,15 +587,16 @@ struct CellVisit {
       empty = view->for_each_in_cell(cell, listed);
     }
     if (empty != 0) {
-      // An empty leaf lists nothing that a hit found before could lie in,
-      // beyond rounding, so the walk goes on (a closest hit ends it at the
-      // next leaf that lists something).
       if constexpr (has_sub_grids<View> || has_paged_sub_grids<View>) {
         if (empty >= kSubGridCode) [[unlikely]] {
           --stats.cells_visited;  // a cell holding a sub-grid: its leaves are counted
           return empty;
         }
       }
+      // A closest hit may lie in an empty leaf: one found in a sub-grid's
+      // large-primitive leaf lies in its cells, which do not list it. (An
+      // any-hit walk has stopped at its hit.)
+      if (!kAny && found && hit.t <= t_exit) return kStopWalk;
       stats.empty_jumps += empty >= kMinJumpDistance;
       return empty;
     }

@@ -5,6 +5,7 @@
 // never give a thin-but-populated axis one cell. No timing here (bench accel).
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -173,6 +174,54 @@ TEST_CASE("adaptive grid: a floor under a mesh stays beside the mesh's sub-grid,
     if (length(to - o) > 0) rc.check(Ray{o, to - o, 0.0f, uniform(rng, 0.1f, 1.5f)});
   }
   rc.require_clean();
+}
+
+// Records the exit parameter of every leaf a walk visits, in order, and
+// steers the walk as the tracer's visit does (the cell's code: its empty
+// distance, or kSubGridCode + i to descend), never stopping it.
+struct LeafRecorder {
+  const DirectView* view;
+  std::vector<float>* t_exits;
+  std::uint32_t operator()(std::uint32_t cell, float t_exit) {
+    const std::uint32_t code = view->for_each_in_cell(cell, [](std::uint32_t) {});
+    if (code < kSubGridCode) t_exits->push_back(t_exit);
+    return code;
+  }
+};
+
+TEST_CASE("adaptive grid: a closest hit ends the walk at the first leaf it lies within, a floor's beside a sub-grid too") {
+  Scene scene = load_scene({"tetra:6", 0});
+  const Vec3 quad[4] = {{-1000, -1000, -1.01f}, {1000, -1000, -1.01f}, {1000, 1000, -1.01f}, {-1000, 1000, -1.01f}};
+  scene.add_polygon(quad, 4);
+  const Built b(scene, adaptive());
+  const DirectView view = b.view();
+  // Rays from the eye and from around the tetrahedra, to the floor under
+  // them and to the tetrahedra: many cross their sub-grid, whose cells do
+  // not list the floor, and hit the floor, found in the large-primitive
+  // leaf visited first.
+  Rng rng(23);
+  int floor_hits = 0, ended_early = 0;
+  for (int i = 0; i < 4000; ++i) {
+    const Vec3 o = i % 2 ? scene.view.from : random_in(rng, Bounds3{{-2, -2, -0.9f}, {2, 2, 2}});
+    const Vec3 to = random_in(rng, Bounds3{{-1.5f, -1.5f, -1.01f}, {1.5f, 1.5f, i % 4 < 2 ? -1.01f : 1.0f}});
+    const Ray ray{o, normalize(to - o), 0.0f, kInfinity};
+    TraversalScratch scratch;
+    Hit hit;
+    if (!intersect_closest(view, ray, hit, scratch)) continue;
+    floor_hits += b.db.primitives[hit.primitive].bounds().extent().x > 100;
+    std::vector<float> t_exits;
+    LeafRecorder record{&view, &t_exits};
+    walk_cells(view, ray, record);
+    // The walk visits every leaf up to the first whose exit lies at or
+    // beyond the hit (a large-primitive leaf, t_exit -inf, ends nothing),
+    // or to its end.
+    std::size_t expect = 0;
+    while (expect < t_exits.size() && !(t_exits[expect] >= hit.t)) ++expect;
+    ended_early += expect + 1 < t_exits.size();
+    CHECK(scratch.stats.cells_visited == std::min(expect + 1, t_exits.size()));
+  }
+  CHECK(floor_hits > 200);
+  CHECK(ended_early > 100);
 }
 
 TEST_CASE("adaptive grid: random triangle soups with spheres and cones agree with brute force and Embree") {

@@ -190,4 +190,12 @@ TEST_CASE("bad input: clamped_floor clamps before converting, NaN and infinities
   CHECK(clamped_floor(-std::numeric_limits<double>::infinity(), 4) == 0);
   CHECK(clamped_floor(std::numeric_limits<double>::quiet_NaN(), 4) == 0);
   CHECK(clamped_floor(0.0, 1) == 0);
+  // The float overload (the 3D-DDA's) gives the same answers.
+  CHECK(clamped_floor(2.5f, 10) == 2);
+  CHECK(clamped_floor(-0.5f, 10) == 0);
+  CHECK(clamped_floor(9.99f, 10) == 9);
+  CHECK(clamped_floor(1e30f, 10) == 9);
+  CHECK(clamped_floor(std::numeric_limits<float>::infinity(), 4) == 3);
+  CHECK(clamped_floor(-std::numeric_limits<float>::infinity(), 4) == 0);
+  CHECK(clamped_floor(std::numeric_limits<float>::quiet_NaN(), 4) == 0);
 }
