@@ -22,9 +22,10 @@
 // and then gets leaf cell ids (walk_cells), or, when its tables are not
 // plain arrays (svm's paged view),
 //   bool has_sub_grids() const;  SubGrid sub_grid(std::uint32_t i) const;
-// and then gets the ids the sub-grids' first_entry fields give, its cell
-// visit returning kSubGridCode + i for a cell holding sub-grid i. The
-// other views walk the uniform grid of grid_info() (the top grid).
+// and then gets the ids the sub-grids' first_entry fields give. Either way
+// its cell visit returns kSubGridCode + i for a top cell holding sub-grid i
+// (grid.h, empty_leaf_code). The other views walk the uniform grid of
+// grid_info() (the top grid).
 // DirectView (direct_view.h) is the plain-array one. A reference a view
 // returns may be valid only until the view's next call (svm's PagedView
 // evicts pages): callers keep a copy of what they need across calls, and
@@ -398,7 +399,8 @@ concept has_packed_cells = requires(const View& v, std::uint32_t c) {
 };
 
 /// Views over an adaptive grid offer sub_grid_tables() (a SubGridTables,
-/// grid.h; empty spans for a uniform grid).
+/// grid.h; empty spans for a uniform grid), and their cell visit returns
+/// kSubGridCode + i for a top cell holding sub-grid i.
 template <class View>
 concept has_sub_grids = requires(const View& v) {
   { v.sub_grid_tables() } -> std::convertible_to<SubGridTables>;
@@ -427,26 +429,38 @@ struct SubWalk {
   bool stopped;
 };
 
-/// walk_cells below one grid of a paged adaptive hierarchy: visit's
-/// kSubGridCode + j for a cell descends into sub-grid j. The visitor comes
-/// in and goes back by value (see walk_cells).
+/// Sub-grid i's record: a reference into the view's table, or the copy a
+/// paged view reads.
+template <class View>
+decltype(auto) sub_grid_of(const View& view, std::uint32_t i) {
+  if constexpr (has_sub_grids<View>) return (view.sub_grid_tables().sub_grids[i]);
+  else return view.sub_grid(i);
+}
+
+/// walk_cells below one grid of an adaptive hierarchy: walk_grid over
+/// sub-grid `index`, whose cell c is leaf first_entry + c; a visit's
+/// kSubGridCode + j for a cell descends into sub-grid j, recursively (its
+/// bounds hold every point of the cell that the primitives it lists reach,
+/// so the inner walk covers the ray's piece that can hit them). The cell's
+/// large primitives, if any, are visited first. The visitor comes in and
+/// goes back by value (see walk_cells).
 template <class View, class Visit>
-[[gnu::noinline]] SubWalk<Visit> walk_paged_sub_grid(const View& view, std::uint32_t index,
-                                                                   const Ray& ray, const Vec3& inv_v, Visit visit) {
-  const SubGrid g = view.sub_grid(index);
+[[gnu::noinline]] SubWalk<Visit> walk_sub_grid(const View& view, std::uint32_t index, const Ray& ray,
+                                               const Vec3& inv_v, Visit visit) {
+  const auto& g = sub_grid_of(view, index);  // a paged view's copy lives as long as g
   bool stopped = false;
   // The cell's large primitives first (SubGrid): a hit there ends no walk
   // but a shadow ray's, as the sub-grid's cells may hold nearer ones.
   if (g.large_list && visit(g.first_entry + g.info.cell_count(), -kInfinity) == kStopWalk) return {visit, true};
   walk_grid(g.info, LinearCellOrder{}, ray, inv_v, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
     const std::uint32_t d = visit(g.first_entry + cell, t_exit);
+    if (d < kSubGridCode) [[likely]]
+      return d;
     if (d == kStopWalk) {
       stopped = true;
       return kStopWalk;
     }
-    if (d < kSubGridCode) [[likely]]
-      return d;
-    SubWalk<Visit> below = walk_paged_sub_grid(view, d - kSubGridCode, ray, inv_v, visit);
+    SubWalk<Visit> below = walk_sub_grid(view, d - kSubGridCode, ray, inv_v, visit);
     visit = below.visit;
     stopped = below.stopped;
     return stopped ? kStopWalk : 0;
@@ -454,46 +468,25 @@ template <class View, class Visit>
   return {visit, stopped};
 }
 
-/// walk_cells below one grid of an adaptive hierarchy: walk_grid over
-/// sub_grids[index]; a cell holding a sub-grid is walked in turn (its
-/// bounds hold every point of the cell that the primitives it lists reach,
-/// so the inner walk covers the ray's piece that can hit them; the cell's
-/// large primitives, if any, are visited first). The visitor comes in and
-/// goes back by value (see walk_cells).
-template <class Visit>
-[[gnu::noinline]] SubWalk<Visit> walk_sub_grid(const SubGridTables& t, std::uint32_t index,
-                                                             const Ray& ray, const Vec3& inv_v, Visit visit) {
-  const SubGrid& g = t.sub_grids[index];
-  const std::uint32_t* entries = t.cell_entries.data() + g.first_entry;
-  bool stopped = false;
-  // The cell's large primitives first (SubGrid): a hit there ends no walk
-  // but a shadow ray's, as the sub-grid's cells may hold nearer ones.
-  if (g.large_list && visit(g.first_entry + g.info.cell_count(), -kInfinity) == kStopWalk) return {visit, true};
-  walk_grid(g.info, LinearCellOrder{}, ray, inv_v, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
-    const std::uint32_t e = entries[cell];
-    if (e & kSubGridEntry) [[unlikely]] {
-      SubWalk<Visit> below = walk_sub_grid(t, e & ~kSubGridEntry, ray, inv_v, visit);
-      visit = below.visit;
-      stopped = below.stopped;
-      return stopped ? kStopWalk : 0;
-    }
-    const std::uint32_t d = visit(e, t_exit);
-    stopped = d == kStopWalk;
-    return d;
-  });
-  return {visit, stopped};
+/// True when `view` is over an adaptive grid that holds sub-grids.
+template <class View>
+bool holds_sub_grids(const View& view) {
+  if constexpr (has_sub_grids<View>) return !view.sub_grid_tables().sub_grids.empty();
+  else if constexpr (has_paged_sub_grids<View>) return view.has_sub_grids();
+  else return false;
 }
 
 }  // namespace detail
 
 /// Walks the leaf cells pierced by `ray` in order, calling visit(leaf,
 /// t_exit) as walk_grid does: over the view's uniform grid, or, for a view
-/// of an adaptive grid (has_sub_grids, non-empty tables), by a nested walk
-/// — walk_grid over the top grid and, in each cell holding a sub-grid,
-/// walk_grid over that sub-grid (recursively), each with the 3D-DDA's
-/// determinism and empty-space jumps. A leaf's t_exit is its own exit, so
-/// the closest-hit early exit keeps its meaning; visit's kStopWalk ends
-/// every level. The mailbox dedups primitives listed at several levels.
+/// of an adaptive grid (has_sub_grids or has_paged_sub_grids, with
+/// sub-grids), by a nested walk — walk_grid over the top grid and, in each
+/// cell holding a sub-grid, walk_grid over that sub-grid (recursively),
+/// each with the 3D-DDA's determinism and empty-space jumps. A leaf's
+/// t_exit is its own exit, so the closest-hit early exit keeps its meaning;
+/// visit's kStopWalk ends every level. The mailbox dedups primitives listed
+/// at several levels.
 ///
 /// `visit` is a copyable object (not a lambda: it is assigned to): a walk
 /// below the top grid, which is out of line, takes a copy and hands it
@@ -503,34 +496,18 @@ template <class Visit>
 /// the out-of-line walk would keep it in memory for the whole walk.
 template <class View, class Visit>
 inline void walk_cells(const View& view, const Ray& ray, Visit& visit) {
-  if constexpr (has_sub_grids<View>) {
-    const SubGridTables t = view.sub_grid_tables();
-    if (!t.sub_grids.empty()) {
+  if constexpr (has_sub_grids<View> || has_paged_sub_grids<View>) {
+    if (detail::holds_sub_grids(view)) {
       // The top grid's walk is inlined here, so that its leaves are visited
       // with the caller's hit and counters in registers; only a cell holding
-      // a sub-grid (its visit returns kSubGridCode + i) calls out
-      // (walk_sub_grid, recursive). The top grid's cell c is leaf c (SubGrid).
-      const Vec3 inv_v{1.0f / ray.direction.x, 1.0f / ray.direction.y, 1.0f / ray.direction.z};
-      walk_grid(t.sub_grids[0].info, LinearCellOrder{}, ray, inv_v, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
-        const std::uint32_t d = visit(cell, t_exit);
-        if (d < kSubGridCode || d == kStopWalk) [[likely]]
-          return d;
-        const detail::SubWalk<Visit> below = detail::walk_sub_grid(t, d - kSubGridCode, ray, inv_v, visit);
-        visit = below.visit;
-        return below.stopped ? kStopWalk : 0;
-      });
-      return;
-    }
-  } else if constexpr (has_paged_sub_grids<View>) {
-    if (view.has_sub_grids()) {
-      // The top grid's cells in the view's order (linear or bricked keys);
-      // a visit's kSubGridCode + i descends into sub-grid i.
+      // a sub-grid (its visit returns kSubGridCode + i) calls out. Its
+      // cells in the view's order (linear or bricked keys); cell c is leaf c.
       const Vec3 inv_v{1.0f / ray.direction.x, 1.0f / ray.direction.y, 1.0f / ray.direction.z};
       walk_grid(view.grid_info(), cell_order_of(view), ray, inv_v, [&](std::uint32_t cell, float t_exit) -> std::uint32_t {
         const std::uint32_t d = visit(cell, t_exit);
         if (d < kSubGridCode || d == kStopWalk) [[likely]]
           return d;
-        const detail::SubWalk<Visit> below = detail::walk_paged_sub_grid(view, d - kSubGridCode, ray, inv_v, visit);
+        const detail::SubWalk<Visit> below = detail::walk_sub_grid(view, d - kSubGridCode, ray, inv_v, visit);
         visit = below.visit;
         return below.stopped ? kStopWalk : 0;
       });
