@@ -613,14 +613,17 @@ def ab_pairs(name):
     return out
 
 
-def ab_section(src, title, what, name, headers, body, notes):
-    """A results section over docs/ab_pair.sh's rows in results/NAME: what changed, the command, the table
-    (medians over the rounds, the time ratio paired by round) and the notes under it."""
+AB_PAIR_HOW = " Medians over the rounds; the time ratio pairs the two builds' runs of one round:"
+
+
+def ab_section(src, title, what, name, headers, body, notes, how=AB_PAIR_HOW):
+    """A results section comparing two builds over the rows in results/NAME: what changed, the command, how the
+    table reads (by default docs/ab_pair.sh's medians over the rounds, the time ratio paired by round), the table
+    and the notes under it."""
     return "\n".join([
         f"## {title}",
         "",
-        what + " " + src.describe(name) + " Medians over the rounds; the time ratio pairs the two builds' runs of "
-        "one round:",
+        what + " " + src.describe(name) + how,
         "",
         table(headers, body),
         "",
@@ -678,25 +681,19 @@ def section_subgrid_mark(src):
         per_ray = [float(r["instructions"]) / float(r["rays"]) for r in (old, new)]
         body.append([scene, thousands(round(per_ray[0])), thousands(round(per_ray[1])), f"{per_ray[1] / per_ray[0]:.3f}",
                      f"{float(new['cells_visited']) / float(new['rays']):.1f}", new["image_equal"]])
-    return "\n".join([
-        "## Cells holding sub-grids",
-        "",
+    return ab_section(
+        src, "Cells holding sub-grids",
         "The top walk of an adaptive grid used to test a bit per top cell to find the cells holding a sub-grid; such "
         "a cell's placeholder leaf now has the empty distance 255 (kSubGridMark), which the cell visit reads first "
         "anyway; the walks below the top grid visit their cells' leaves by id the same way, with no entry read; the "
         "visitor's hit check and jump counter run only on the branch they concern; and the 3D-DDA floors in float, "
-        "not double. Instructions "
-        "inside the tracer's queries, counted by callgrind (a count this machine's noise does not blur), the build "
-        "before against this one: " + src.describe(name),
-        "",
-        table(["scene", "instructions per ray, before", "after", "after / before", "cells per ray",
-               "same image"], body),
-        "",
-        "- The same cells are visited and the same primitives tested; the gain is the walk's own work. It is "
-        "largest where the top grid is large and mostly empty (the scanned mesh in a room, tree's ground).",
-        "- Wall-clock A/B runs of `docs/ab_pair.sh` on this 2-core machine moved by up to 40% from round to round "
-        "for one binary, more than these differences.",
-    ])
+        "not double. Instructions inside the tracer's queries, counted by callgrind (a count this machine's noise "
+        "does not blur), the build before against this one:", name,
+        ["scene", "instructions per ray, before", "after", "after / before", "cells per ray", "same image"], body,
+        ["- The same cells are visited and the same primitives tested; the gain is the walk's own work. It is "
+         "largest where the top grid is large and mostly empty (the scanned mesh in a room, tree's ground).",
+         "- Wall-clock A/B runs of `docs/ab_pair.sh` on this 2-core machine moved by up to 40% from round to round "
+         "for one binary, more than these differences."], how="")
 
 
 def section_quality(src):
