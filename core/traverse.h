@@ -34,6 +34,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <concepts>
@@ -230,6 +231,10 @@ inline constexpr std::uint32_t kMinJumpDistance = 4;
 /// cells' conservative margins (grid.h). A jump must pass the current
 /// cell's exit and the previous jump's target, so the walk always ends.
 ///
+/// The entry's and the jumps' per-axis arithmetic runs in SSE lanes where
+/// SSE4.1 is available, each lane in the scalar form's order, so that the
+/// cells are the same bit for bit; the cell-by-cell steps stay scalar.
+///
 /// `order` numbers the cells handed to visit: LinearCellOrder (GridInfo::
 /// cell_index, one add per step) or a CellKeyTables (a bricked directory's
 /// keys, one table read per step; cell_order.h). The cells walked are the
@@ -239,43 +244,109 @@ inline void walk_grid(const GridInfo& g, const Order& order, const Ray& ray, con
   constexpr bool kLinear = std::is_same_v<Order, LinearCellOrder>;
   float t0, t1;
   if (!intersect_bounds(g.bounds, ray, inv_v, t0, t1)) return;
-  const Vec3 p = ray.at(t0);
   const float org[3] = {ray.origin.x, ray.origin.y, ray.origin.z};
   const float dir[3] = {ray.direction.x, ray.direction.y, ray.direction.z};
   const float inv[3] = {inv_v.x, inv_v.y, inv_v.z};
   const float lower[3] = {g.bounds.lower.x, g.bounds.lower.y, g.bounds.lower.z};
   const float size[3] = {g.cell_size.x, g.cell_size.y, g.cell_size.z};
-  const float pos[3] = {p.x, p.y, p.z};
-  const float inv_size[3] = {g.inv_cell_size.x, g.inv_cell_size.y, g.inv_cell_size.z};
   const std::int32_t stride[3] = {1, g.res[0], g.res[0] * g.res[1]};
-  int boundary[3], step[3], left[3];  // next boundary index, +-1/0, steps left before leaving
-  std::int32_t delta[3];              // linear index change per step
-  const std::int32_t* steps[3];       // bricked: the key's change per step, by next boundary
+  int step[3];                   // +-1/0 per axis
+  std::int32_t delta[3];         // linear index change per step
+  const std::int32_t* steps[3];  // bricked: the key's change per step, by next boundary
+  for (int a = 0; a < 3; ++a) {
+    // Branch-free on the direction's sign (select, not jump).
+    const bool pos_dir = dir[a] > 0.0f, neg_dir = dir[a] < 0.0f;
+    step[a] = int(pos_dir) - int(neg_dir);
+    delta[a] = step[a] * stride[a];
+    if constexpr (!kLinear) steps[a] = pos_dir ? order.up[a] : order.down[a];
+  }
   // Axis a's part of cell c's number.
   auto axis_key = [&](int a, int c) -> std::int32_t {
     if constexpr (kLinear) return c * stride[a];
     else return order.key[a][c];
   };
-  float next_t[3];
-  std::int32_t cell = 0;
-  for (int a = 0; a < 3; ++a) {
-    const int c = clamped_floor((pos[a] - lower[a]) * inv_size[a], g.res[a]);
-    cell += axis_key(a, c);
-    // Branch-free on the direction's sign (select, not jump).
-    const bool pos_dir = dir[a] > 0.0f, neg_dir = dir[a] < 0.0f;
-    step[a] = int(pos_dir) - int(neg_dir);
-    boundary[a] = c + int(pos_dir);
-    left[a] = pos_dir ? g.res[a] - 1 - c : (neg_dir ? c : -1);  // -1: never reached, next_t stays +inf
-    const float t_boundary = (lower[a] + float(boundary[a]) * size[a] - org[a]) * inv[a];
-    next_t[a] = (pos_dir || neg_dir) ? t_boundary : kInfinity;
-    delta[a] = step[a] * stride[a];
-    if constexpr (!kLinear) steps[a] = pos_dir ? order.up[a] : order.down[a];
-  }
   // The walk keeps each axis's state in its own scalars (registers), not in
-  // arrays indexed by the run-time axis.
-  float n0 = next_t[0], n1 = next_t[1], n2 = next_t[2];
-  int l0 = left[0], l1 = left[1], l2 = left[2];
-  int b0 = boundary[0], b1 = boundary[1], b2 = boundary[2];
+  // arrays indexed by the run-time axis: the next boundary's parameter n,
+  // the steps left before leaving the grid l (-1 on a still axis: never
+  // reached, n stays +inf) and the next boundary's index b.
+  float n0, n1, n2;
+  int l0, l1, l2, b0, b1, b2;
+  std::int32_t cell;
+#if defined(__SSE4_1__)
+  // The (re)start's per-axis arithmetic side by side in SSE lanes (x, y, z,
+  // unused): each lane performs the scalar form's operations in its order
+  // (no FMA: -ffp-contract=off), so the cells are the same.
+  // Lane 3 is never read: four-float loads take the next member there
+  // (GridInfo: bounds.upper.x after bounds.lower, cell_size.x after res,
+  // inv_cell_size.x after cell_size; Ray: direction.x after origin, tmin
+  // after direction); the last member of each is set lane by lane.
+  static_assert(offsetof(GridInfo, res) == sizeof(Bounds3) && offsetof(GridInfo, inv_cell_size) < sizeof(GridInfo) &&
+                offsetof(Ray, tmin) == 2 * sizeof(Vec3));
+  const __m128 v_lower = _mm_loadu_ps(&g.bounds.lower.x);
+  const __m128 v_size = _mm_loadu_ps(&g.cell_size.x);
+  const __m128 v_org = _mm_loadu_ps(&ray.origin.x);
+  const __m128 v_dir = _mm_loadu_ps(&ray.direction.x);
+  const __m128 v_inv = _mm_setr_ps(inv[0], inv[1], inv[2], 0.0f);
+  const __m128 v_inv_size = _mm_setr_ps(g.inv_cell_size.x, g.inv_cell_size.y, g.inv_cell_size.z, 0.0f);
+  const __m128i v_last =  // last cell per axis
+      _mm_sub_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(g.res)), _mm_set1_epi32(1));
+  const __m128 v_last_f = _mm_cvtepi32_ps(v_last);
+  const __m128i v_pos = _mm_castps_si128(_mm_cmpgt_ps(v_dir, _mm_setzero_ps()));  // -1 where step > 0
+  const __m128i v_neg = _mm_castps_si128(_mm_cmplt_ps(v_dir, _mm_setzero_ps()));  // -1 where step < 0
+  const __m128 v_still = _mm_castsi128_ps(_mm_cmpeq_epi32(_mm_or_si128(v_pos, v_neg), _mm_setzero_si128()));
+  const __m128i v_step = _mm_sub_epi32(v_neg, v_pos);
+  const __m128 v_inf = _mm_set1_ps(kInfinity);
+  // clamped_floor((q - lower) / cell size) per lane.
+  auto cells_of = [&](__m128 q) [[gnu::always_inline]] {
+    const __m128 f = _mm_floor_ps(_mm_mul_ps(_mm_sub_ps(q, v_lower), v_inv_size));
+    const __m128i c = _mm_cvttps_epi32(_mm_max_ps(f, _mm_setzero_ps()));  // NaN: max gives 0
+    return _mm_blendv_epi8(c, v_last, _mm_castps_si128(_mm_cmpge_ps(f, v_last_f)));
+  };
+  // The ray's parameter at boundary index b per lane (+inf on a still axis).
+  auto boundary_t = [&](__m128i b) [[gnu::always_inline]] {
+    const __m128 t = _mm_mul_ps(_mm_sub_ps(_mm_add_ps(v_lower, _mm_mul_ps(_mm_cvtepi32_ps(b), v_size)), v_org), v_inv);
+    return _mm_blendv_ps(t, v_inf, v_still);
+  };
+  // The walk's state in cell c (per lane).
+  auto start_in = [&](__m128i c) [[gnu::always_inline]] {
+    const __m128i b = _mm_sub_epi32(c, v_pos);  // c + 1 where step > 0
+    const __m128i left =
+        _mm_blendv_epi8(_mm_blendv_epi8(_mm_set1_epi32(-1), c, v_neg), _mm_sub_epi32(v_last, c), v_pos);
+    alignas(16) float n[4];
+    alignas(16) std::int32_t ci[4], bi[4], li[4];
+    _mm_store_ps(n, boundary_t(b));
+    _mm_store_si128(reinterpret_cast<__m128i*>(ci), c);
+    _mm_store_si128(reinterpret_cast<__m128i*>(bi), b);
+    _mm_store_si128(reinterpret_cast<__m128i*>(li), left);
+    n0 = n[0], n1 = n[1], n2 = n[2];
+    b0 = bi[0], b1 = bi[1], b2 = bi[2];
+    l0 = li[0], l1 = li[1], l2 = li[2];
+    cell = axis_key(0, ci[0]) + axis_key(1, ci[1]) + axis_key(2, ci[2]);
+  };
+  start_in(cells_of(_mm_add_ps(v_org, _mm_mul_ps(v_dir, _mm_set1_ps(t0)))));
+#else
+  auto start_in = [&](const int c[3]) {
+    int b[3], left[3];
+    float next_t[3];
+    for (int a = 0; a < 3; ++a) {
+      b[a] = c[a] + int(step[a] > 0);
+      next_t[a] = step[a] != 0 ? (lower[a] + float(b[a]) * size[a] - org[a]) * inv[a] : kInfinity;
+      left[a] = step[a] > 0 ? g.res[a] - 1 - c[a] : (step[a] < 0 ? c[a] : -1);
+    }
+    n0 = next_t[0], n1 = next_t[1], n2 = next_t[2];
+    b0 = b[0], b1 = b[1], b2 = b[2];
+    l0 = left[0], l1 = left[1], l2 = left[2];
+    cell = axis_key(0, c[0]) + axis_key(1, c[1]) + axis_key(2, c[2]);
+  };
+  {
+    const Vec3 p = ray.at(t0);
+    const float pos[3] = {p.x, p.y, p.z};
+    const float inv_size[3] = {g.inv_cell_size.x, g.inv_cell_size.y, g.inv_cell_size.z};
+    int c[3];
+    for (int a = 0; a < 3; ++a) c[a] = clamped_floor((pos[a] - lower[a]) * inv_size[a], g.res[a]);
+    start_in(c);
+  }
+#endif
   float t_jumped = -kInfinity;  // the last jump's target
   // One cell along axis a; false when the ray leaves the grid there.
   auto advance = [&](int& l, int& b, float& n, int a) [[gnu::always_inline]] {
@@ -319,10 +390,21 @@ inline void walk_grid(const GridInfo& g, const Order& order, const Ray& ray, con
     }
     // An empty cube of radius r = d-1 around the current cell: its far
     // boundary on each moving axis (clamped to the grid) and the ray's
-    // parameter there.
+    // parameter there. The ray leaves the cube at the nearest, axis e.
     const int r = int(d) - 1;
-    int b[3] = {b0, b1, b2};
-    const int l[3] = {l0, l1, l2};
+#if defined(__SSE4_1__)
+    const __m128i v_b = _mm_setr_epi32(b0, b1, b2, 0);
+    // far = b + step * min(r, l); l < 0 on a still axis, whose t_far is +inf.
+    const __m128i v_far = _mm_add_epi32(v_b, _mm_sign_epi32(_mm_min_epi32(_mm_set1_epi32(r), _mm_setr_epi32(l0, l1, l2, 0)), v_step));
+    alignas(16) float t_far[4];
+    alignas(16) std::int32_t far[4];
+    _mm_store_ps(t_far, boundary_t(v_far));
+    _mm_store_si128(reinterpret_cast<__m128i*>(far), v_far);
+    const int e = (t_far[0] < t_far[1]) ? (t_far[0] < t_far[2] ? 0 : 2) : (t_far[1] < t_far[2] ? 1 : 2);
+    const float t_jump = t_far[e];
+    const int l_e = e == 0 ? l0 : (e == 1 ? l1 : l2);
+#else
+    const int b[3] = {b0, b1, b2}, l[3] = {l0, l1, l2};
     int far[3];
     float t_far[3];
     for (int a = 0; a < 3; ++a) {
@@ -332,32 +414,45 @@ inline void walk_grid(const GridInfo& g, const Order& order, const Ray& ray, con
     }
     const int e = (t_far[0] < t_far[1]) ? (t_far[0] < t_far[2] ? 0 : 2) : (t_far[1] < t_far[2] ? 1 : 2);
     const float t_jump = t_far[e];
+    const int l_e = l[e];
+#endif
     if (t_jump > t_here && t_jump > t_jumped) {
       // The ray leaves the grid, or its segment ends, inside the empty cube.
-      if (t_jump >= t1 || (r >= l[e])) return;
+      if (t_jump >= t1 || r >= l_e) return;
       t_jumped = t_jump;
+      // Restart in the cell just across the exit face on axis e; on the
+      // other moving axes, the cell holding the exit point, kept within the
+      // cube's span [current cell, far face's cell] and the grid; a still
+      // axis keeps its cell.
+#if defined(__SSE4_1__)
+      const __m128i v_cur = _mm_add_epi32(v_b, v_pos);  // current cell: b - 1 where step > 0
+      const __m128i v_lo = _mm_blendv_epi8(_mm_sub_epi32(v_far, _mm_set1_epi32(1)), v_cur, v_pos);
+      const __m128i v_hi = _mm_blendv_epi8(v_cur, v_far, v_pos);
+      const __m128i v_f = cells_of(_mm_add_ps(v_org, _mm_mul_ps(v_dir, _mm_set1_ps(t_jump))));
+      const __m128i v_in = _mm_max_epi32(_mm_min_epi32(_mm_max_epi32(_mm_min_epi32(v_f, v_hi), v_lo), v_last),
+                                         _mm_setzero_si128());
+      const __m128i v_across = _mm_add_epi32(v_far, v_neg);  // far - 1 where step < 0
+      __m128i v_c = _mm_blendv_epi8(v_in, v_cur, _mm_castps_si128(v_still));
+      v_c = _mm_blendv_epi8(v_c, v_across, _mm_cmpeq_epi32(_mm_setr_epi32(0, 1, 2, 3), _mm_set1_epi32(e)));
+      start_in(v_c);
+#else
       const Vec3 q = ray.at(t_jump);
       const float qa[3] = {q.x, q.y, q.z};
-      cell = 0;
+      const float inv_size[3] = {g.inv_cell_size.x, g.inv_cell_size.y, g.inv_cell_size.z};
+      int c[3];
       for (int a = 0; a < 3; ++a) {
-        int c = b[a] - int(step[a] > 0);  // current cell on a still axis
+        c[a] = b[a] - int(step[a] > 0);  // current cell on a still axis
         if (a == e) {
-          c = far[a] - int(step[a] < 0);  // just across the exit face
+          c[a] = far[a] - int(step[a] < 0);  // just across the exit face
         } else if (step[a] != 0) {
-          // Within the cube's span on this axis: [current cell, far face's cell].
-          const int lo = step[a] > 0 ? c : far[a] - 1, hi = step[a] > 0 ? far[a] : c;
+          const int lo = step[a] > 0 ? c[a] : far[a] - 1, hi = step[a] > 0 ? far[a] : c[a];
           const int f = clamped_floor((qa[a] - lower[a]) * inv_size[a], g.res[a]);
-          c = f < lo ? lo : (f > hi ? hi : f);
-          c = c > g.res[a] - 1 ? g.res[a] - 1 : (c < 0 ? 0 : c);
+          c[a] = f < lo ? lo : (f > hi ? hi : f);
+          c[a] = c[a] > g.res[a] - 1 ? g.res[a] - 1 : (c[a] < 0 ? 0 : c[a]);
         }
-        cell += axis_key(a, c);
-        b[a] = c + int(step[a] > 0);
-        next_t[a] = step[a] != 0 ? (lower[a] + float(b[a]) * size[a] - org[a]) * inv[a] : kInfinity;
-        left[a] = step[a] > 0 ? g.res[a] - 1 - c : (step[a] < 0 ? c : -1);
       }
-      b0 = b[0], b1 = b[1], b2 = b[2];
-      n0 = next_t[0], n1 = next_t[1], n2 = next_t[2];
-      l0 = left[0], l1 = left[1], l2 = left[2];
+      start_in(c);
+#endif
       continue;
     }
     // No gain: an ordinary step along k.
