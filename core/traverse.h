@@ -37,6 +37,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <concepts>
 #include <type_traits>
 #include <utility>
@@ -231,9 +232,10 @@ inline constexpr std::uint32_t kMinJumpDistance = 4;
 /// cells' conservative margins (grid.h). A jump must pass the current
 /// cell's exit and the previous jump's target, so the walk always ends.
 ///
-/// The entry's and the jumps' per-axis arithmetic runs in SSE lanes where
-/// SSE4.1 is available, each lane in the scalar form's order, so that the
-/// cells are the same bit for bit; the cell-by-cell steps stay scalar.
+/// The entry's slab test (intersect_bounds) and the entry's and the jumps'
+/// per-axis arithmetic run in SSE lanes where SSE4.1 is available, each
+/// lane in the scalar form's order, so that the cells are the same bit for
+/// bit; the cell-by-cell steps stay scalar.
 ///
 /// `order` numbers the cells handed to visit: LinearCellOrder (GridInfo::
 /// cell_index, one add per step) or a CellKeyTables (a bricked directory's
@@ -242,8 +244,50 @@ inline constexpr std::uint32_t kMinJumpDistance = 4;
 template <class Order, class Visit>
 inline void walk_grid(const GridInfo& g, const Order& order, const Ray& ray, const Vec3& inv_v, Visit&& visit) {
   constexpr bool kLinear = std::is_same_v<Order, LinearCellOrder>;
-  float t0, t1;
+  float t0, t1;  // the ray's stretch inside the grid's box
+#if defined(__SSE4_1__)
+  // The entry's and the jumps' per-axis arithmetic side by side in SSE
+  // lanes (x, y, z, unused): each lane performs the scalar form's
+  // operations in its order (no FMA: -ffp-contract=off), so the cells are
+  // the same. Lane 3 is never read: four-float loads take the next member
+  // there (GridInfo: bounds.upper.x after bounds.lower, res[0] after
+  // bounds.upper, cell_size.x after res; Ray: direction.x after origin,
+  // tmin after direction); the last member of each is set lane by lane.
+  static_assert(offsetof(Bounds3, upper) == sizeof(Vec3) && offsetof(GridInfo, res) == sizeof(Bounds3) &&
+                offsetof(Ray, tmin) == 2 * sizeof(Vec3));
+  const __m128 v_lower = _mm_loadu_ps(&g.bounds.lower.x);
+  const __m128 v_org = _mm_loadu_ps(&ray.origin.x);
+  const __m128 v_dir = _mm_loadu_ps(&ray.direction.x);
+  const __m128 v_inv = _mm_setr_ps(inv_v.x, inv_v.y, inv_v.z, 0.0f);
+  const __m128i v_pos = _mm_castps_si128(_mm_cmpgt_ps(v_dir, _mm_setzero_ps()));  // -1 where step > 0
+  const __m128i v_neg = _mm_castps_si128(_mm_cmplt_ps(v_dir, _mm_setzero_ps()));  // -1 where step < 0
+  const __m128 v_still = _mm_castsi128_ps(_mm_cmpeq_epi32(_mm_or_si128(v_pos, v_neg), _mm_setzero_si128()));
+  const __m128 v_inf = _mm_set1_ps(kInfinity);
+  {
+    // intersect_bounds, lane by lane: the slabs' entry and exit, sorted
+    // (a NaN keeps the order, as the scalar swap does), the exit inflated;
+    // a still axis misses when the origin lies outside its slab, and is
+    // left out of t0 and t1 (+-inf), as a NaN lane is by the scalar
+    // comparisons, which _mm_max_ss / _mm_min_ss repeat axis by axis.
+    const __m128 v_upper = _mm_loadu_ps(&g.bounds.upper.x);
+    const __m128 v_enter = _mm_mul_ps(_mm_sub_ps(v_lower, v_org), v_inv);
+    const __m128 v_leave = _mm_mul_ps(_mm_sub_ps(v_upper, v_org), v_inv);
+    const __m128 v_outside =
+        _mm_and_ps(v_still, _mm_or_ps(_mm_cmplt_ps(v_org, v_lower), _mm_cmpgt_ps(v_org, v_upper)));
+    if (_mm_movemask_ps(v_outside) & 7) return;
+    const __m128 lo = _mm_blendv_ps(_mm_min_ps(v_leave, v_enter), _mm_set1_ps(-kInfinity), v_still);
+    const __m128 grow = _mm_set1_ps(1.0f + 2.0f * 3.0f * std::numeric_limits<float>::epsilon());
+    const __m128 hi = _mm_blendv_ps(_mm_mul_ps(_mm_max_ps(v_enter, v_leave), grow), v_inf, v_still);
+    __m128 s0 = _mm_set_ss(ray.tmin), s1 = _mm_set_ss(ray.tmax);
+    s0 = _mm_max_ss(lo, s0), s1 = _mm_min_ss(hi, s1);
+    s0 = _mm_max_ss(_mm_shuffle_ps(lo, lo, 1), s0), s1 = _mm_min_ss(_mm_shuffle_ps(hi, hi, 1), s1);
+    s0 = _mm_max_ss(_mm_shuffle_ps(lo, lo, 2), s0), s1 = _mm_min_ss(_mm_shuffle_ps(hi, hi, 2), s1);
+    t0 = _mm_cvtss_f32(s0), t1 = _mm_cvtss_f32(s1);
+    if (t0 > t1) return;
+  }
+#else
   if (!intersect_bounds(g.bounds, ray, inv_v, t0, t1)) return;
+#endif
   const float org[3] = {ray.origin.x, ray.origin.y, ray.origin.z};
   const float dir[3] = {ray.direction.x, ray.direction.y, ray.direction.z};
   const float inv[3] = {inv_v.x, inv_v.y, inv_v.z};
@@ -273,29 +317,12 @@ inline void walk_grid(const GridInfo& g, const Order& order, const Ray& ray, con
   int l0, l1, l2, b0, b1, b2;
   std::int32_t cell;
 #if defined(__SSE4_1__)
-  // The (re)start's per-axis arithmetic side by side in SSE lanes (x, y, z,
-  // unused): each lane performs the scalar form's operations in its order
-  // (no FMA: -ffp-contract=off), so the cells are the same.
-  // Lane 3 is never read: four-float loads take the next member there
-  // (GridInfo: bounds.upper.x after bounds.lower, cell_size.x after res,
-  // inv_cell_size.x after cell_size; Ray: direction.x after origin, tmin
-  // after direction); the last member of each is set lane by lane.
-  static_assert(offsetof(GridInfo, res) == sizeof(Bounds3) && offsetof(GridInfo, inv_cell_size) < sizeof(GridInfo) &&
-                offsetof(Ray, tmin) == 2 * sizeof(Vec3));
-  const __m128 v_lower = _mm_loadu_ps(&g.bounds.lower.x);
-  const __m128 v_size = _mm_loadu_ps(&g.cell_size.x);
-  const __m128 v_org = _mm_loadu_ps(&ray.origin.x);
-  const __m128 v_dir = _mm_loadu_ps(&ray.direction.x);
-  const __m128 v_inv = _mm_setr_ps(inv[0], inv[1], inv[2], 0.0f);
+  const __m128 v_size = _mm_loadu_ps(&g.cell_size.x);  // lane 3: inv_cell_size.x
   const __m128 v_inv_size = _mm_setr_ps(g.inv_cell_size.x, g.inv_cell_size.y, g.inv_cell_size.z, 0.0f);
   const __m128i v_last =  // last cell per axis
       _mm_sub_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(g.res)), _mm_set1_epi32(1));
   const __m128 v_last_f = _mm_cvtepi32_ps(v_last);
-  const __m128i v_pos = _mm_castps_si128(_mm_cmpgt_ps(v_dir, _mm_setzero_ps()));  // -1 where step > 0
-  const __m128i v_neg = _mm_castps_si128(_mm_cmplt_ps(v_dir, _mm_setzero_ps()));  // -1 where step < 0
-  const __m128 v_still = _mm_castsi128_ps(_mm_cmpeq_epi32(_mm_or_si128(v_pos, v_neg), _mm_setzero_si128()));
   const __m128i v_step = _mm_sub_epi32(v_neg, v_pos);
-  const __m128 v_inf = _mm_set1_ps(kInfinity);
   // clamped_floor((q - lower) / cell size) per lane.
   auto cells_of = [&](__m128 q) [[gnu::always_inline]] {
     const __m128 f = _mm_floor_ps(_mm_mul_ps(_mm_sub_ps(q, v_lower), v_inv_size));
