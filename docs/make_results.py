@@ -707,13 +707,14 @@ def section_subgrid_mark(src):
 def section_simd_walk(src):
     return instructions_section(
         src, "simd-walk-instructions.csv", "Walk entries and jumps in SIMD lanes",
-        "A walk's entry into a grid (top grid or sub-grid) and each empty-space jump work out the three axes' cell, "
-        "next boundary and steps left side by side in the lanes of one SSE vector, each lane doing the scalar form's "
-        "operations in its order; the cell-by-cell step stays scalar.",
-        ["- The cells visited and the primitives tested are the same, and so is every image. The gain follows the "
-         "number of jumps and sub-grid entries per ray: largest on the scanned mesh in a room and on Tetra9, whose "
-         "rays cross wide empty spaces; none on scenes whose rays rarely jump (rings, shells, the tetrahedra on a "
-         "1000x floor)."])
+        "A walk's entry into a grid (top grid or sub-grid: the slab test against its box, then the entry cell, the "
+        "next boundaries and the steps left) and each empty-space jump work out the three axes side by side in the "
+        "lanes of one SSE vector, each lane doing the scalar form's operations in its order; the cell-by-cell step "
+        "stays scalar.",
+        ["- The cells visited and the primitives tested are the same, and so is every image. Every ray pays one "
+         "entry, so every scene gains a little; the more jumps and sub-grid entries per ray, the more: most on the "
+         "scanned mesh in a room and on Tetra9, whose rays cross wide empty spaces, least where the tests dominate "
+         "(rings' cylinders, shells' overlapping spheres)."])
 
 
 def section_quality(src):
