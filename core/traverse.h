@@ -422,7 +422,8 @@ inline void walk_grid(const GridInfo& g, const Order& order, const Ray& ray, con
 #if defined(__SSE4_1__)
     const __m128i v_b = _mm_setr_epi32(b0, b1, b2, 0);
     // far = b + step * min(r, l); l < 0 on a still axis, whose t_far is +inf.
-    const __m128i v_far = _mm_add_epi32(v_b, _mm_sign_epi32(_mm_min_epi32(_mm_set1_epi32(r), _mm_setr_epi32(l0, l1, l2, 0)), v_step));
+    const __m128i v_reach = _mm_min_epi32(_mm_set1_epi32(r), _mm_setr_epi32(l0, l1, l2, 0));
+    const __m128i v_far = _mm_add_epi32(v_b, _mm_sign_epi32(v_reach, v_step));
     alignas(16) float t_far[4];
     alignas(16) std::int32_t far[4];
     _mm_store_ps(t_far, boundary_t(v_far));
