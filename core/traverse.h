@@ -251,9 +251,12 @@ inline void walk_grid(const GridInfo& g, const Order& order, const Ray& ray, con
   // operations in its order (no FMA: -ffp-contract=off), so the cells are
   // the same. Lane 3 is never read: four-float loads take the next member
   // there (GridInfo: bounds.upper.x after bounds.lower, res[0] after
-  // bounds.upper, cell_size.x after res; Ray: direction.x after origin,
-  // tmin after direction); the last member of each is set lane by lane.
+  // bounds.upper, cell_size.x after res, inv_cell_size.x after cell_size;
+  // Ray: direction.x after origin, tmin after direction); the last member
+  // of each is set lane by lane.
   static_assert(offsetof(Bounds3, upper) == sizeof(Vec3) && offsetof(GridInfo, res) == sizeof(Bounds3) &&
+                offsetof(GridInfo, cell_size) == offsetof(GridInfo, res) + 3 * sizeof(int) &&
+                offsetof(GridInfo, inv_cell_size) == offsetof(GridInfo, cell_size) + sizeof(Vec3) &&
                 offsetof(Ray, tmin) == 2 * sizeof(Vec3));
   const __m128 v_lower = _mm_loadu_ps(&g.bounds.lower.x);
   const __m128 v_org = _mm_loadu_ps(&ray.origin.x);
