@@ -707,7 +707,8 @@ def section_subgrid_mark(src):
 
 def section_simd_walk(src):
     wall = "simd-walk-ab-2core.csv"
-    paired = [p for *_, p in ab_pairs(wall)]
+    pairs = ab_pairs(wall)
+    paired = [p for *_, p in pairs]
     geomean = math.exp(sum(math.log(p) for p in paired) / len(paired))
     return instructions_section(
         src, "simd-walk-instructions.csv", "Walk entries and jumps in SIMD lanes",
@@ -720,7 +721,7 @@ def section_simd_walk(src):
          "scanned mesh in a room and on Tetra9, whose rays cross wide empty spaces, least where the tests dominate "
          "(rings' cylinders, shells' overlapping spheres).",
          "- Wall clock did not follow: `bench accel`'s grid time, new over old, paired by round and taken as the "
-         f"median of {len(ab_pairs(wall)[0][1])} rounds, ran from {min(paired):.2f} to {max(paired):.2f} per scene "
+         f"median of {len(pairs[0][1])} rounds, ran from {min(paired):.2f} to {max(paired):.2f} per scene "
          f"(geometric mean {geomean:.3f}): " + src.describe(wall) + " On this machine the set-up's instructions "
          "were not what the walk waited on."])
 
