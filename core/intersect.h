@@ -413,24 +413,31 @@ inline bool intersect_sphere(const Ray& ray, const Vec3& center, float radius, f
 inline bool intersect_cone(const Ray& ray, const Vec3& base, float rb_in, const Vec3& apex, float ra_in,
                            float tmax, float& t_out) {
   const double rb = std::fabs(double(rb_in)), ra = std::fabs(double(ra_in));
-  double w[3] = {double(apex.x) - base.x, double(apex.y) - base.y, double(apex.z) - base.z};
-  const double h = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
-  if (!(h > 0.0)) return false;
-  for (double& x : w) x /= h;
+  // The axis W = apex - base is left unnormalised (exact in double: a
+  // difference of floats); projections onto it are taken as fractions of
+  // the axis, f = (P . W) / |W|^2, so the test needs no square root and one
+  // division.
+  const double w[3] = {double(apex.x) - base.x, double(apex.y) - base.y, double(apex.z) - base.z};
+  const double h2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+  if (!(h2 > 0.0)) return false;
+  const double inv_h2 = 1.0 / h2;
   const double o[3] = {double(ray.origin.x) - base.x, double(ray.origin.y) - base.y,
                        double(ray.origin.z) - base.z};
   const double d[3] = {ray.direction.x, ray.direction.y, ray.direction.z};
-  const double ow = o[0] * w[0] + o[1] * w[1] + o[2] * w[2];
-  const double dw = d[0] * w[0] + d[1] * w[1] + d[2] * w[2];
-  double op[3], dp[3];
+  const double fo = (o[0] * w[0] + o[1] * w[1] + o[2] * w[2]) * inv_h2;  // the origin's axial fraction
+  const double fd = (d[0] * w[0] + d[1] * w[1] + d[2] * w[2]) * inv_h2;  // its change per unit t
+  double op[3], dp[3];  // the parts of o and d normal to the axis
   for (int i = 0; i < 3; ++i) {
-    op[i] = o[i] - ow * w[i];
-    dp[i] = d[i] - dw * w[i];
+    op[i] = o[i] - fo * w[i];
+    dp[i] = d[i] - fd * w[i];
   }
-  const double k = (ra - rb) / h;   // radius change per unit along the axis
-  const double r0 = rb + k * ow;    // radius at the origin's axial position
-  const double qa = dp[0] * dp[0] + dp[1] * dp[1] + dp[2] * dp[2] - k * k * dw * dw;
-  const double qb = 2.0 * (op[0] * dp[0] + op[1] * dp[1] + op[2] * dp[2] - k * r0 * dw);
+  // Radius at axial fraction f: rb + c f. The surface: |op + t dp|^2 =
+  // (r0 + c fd t)^2 with r0 the radius at the origin's axial position.
+  const double c = ra - rb;
+  const double r0 = rb + c * fo;
+  const double cfd = c * fd;
+  const double qa = dp[0] * dp[0] + dp[1] * dp[1] + dp[2] * dp[2] - cfd * cfd;
+  const double qb = 2.0 * (op[0] * dp[0] + op[1] * dp[1] + op[2] * dp[2] - r0 * cfd);
   const double qc = op[0] * op[0] + op[1] * op[1] + op[2] * op[2] - r0 * r0;
   // The stable pair of roots (Press et al., "Numerical Recipes", §5.6):
   // q = -(qb + sign(qb) sqrt(disc)) / 2, t = q / qa and t = qc / q. No
@@ -444,13 +451,11 @@ inline bool intersect_cone(const Ray& ray, const Vec3& base, float rb_in, const 
   if (q == 0.0) return false;  // qb = 0 and qa qc = 0: no isolated root
   double roots[2] = {qc / q, qa != 0.0 ? q / qa : kInfinity};
   if (roots[0] > roots[1]) std::swap(roots[0], roots[1]);
-  const int nroots = 2;
-  for (int i = 0; i < nroots; ++i) {
-    const double t = roots[i];
+  for (const double t : roots) {
     if (!(t > ray.tmin && t < tmax)) continue;
-    const double s = ow + t * dw;  // axial position of the hit
-    if (s < 0.0 || s > h) continue;
-    if (rb + k * s < 0.0) continue;  // the other nappe of a cone
+    const double f = fo + t * fd;  // axial fraction of the hit
+    if (f < 0.0 || f > 1.0) continue;
+    if (rb + c * f < 0.0) continue;  // the other nappe of a cone
     const float tf = static_cast<float>(t);
     if (!(tf > ray.tmin && tf < tmax)) continue;
     t_out = tf;
