@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -187,7 +188,6 @@ void sphere_cells(const Primitive& p, const int lo[3], const int hi[3], CellSpan
       // monotone, so the row's bounds bound every cell's sum.
       if ((min_near[0] + ny) + nz > r2 || (max_far[0] + fy) + fz < r2) continue;
       for (int x = lo[0]; x <= hi[0]; ++x) {
-        if ((++work & 4095u) == 0) poll();
         const std::size_t i = std::size_t(x - lo[0]);
         if ((near_x[i] + ny) + nz <= r2 && (far_x[i] + fy) + fz >= r2) f(x, y, z);
       }
@@ -202,9 +202,15 @@ void sphere_cells(const Primitive& p, const int lo[3], const int hi[3], CellSpan
 // costs its centre's projections; the three edge axes normal to x do not
 // depend on x and are tested once per row. Same axes and inflated boxes as
 // tri_box_sat, so the same cells up to the last bits of rounding.
+//
+// `inner` is an axis on which the triangle lies within one cell's slab (or
+// -1). Then a cell's box meets the triangle if and only if its rectangle on
+// the other two axes meets the triangle's projection there, and the test
+// is that plane's separating-axis test: the two slabs and the three edges
+// crossed with axis `inner`.
 template <class F, class Poll>
-void triangle_cells(const Primitive& p, const int lo[3], const int hi[3], const CellSpans& s, std::size_t& work,
-                    F&& f, Poll&& poll) {
+void triangle_cells(const Primitive& p, const int lo[3], const int hi[3], const CellSpans& s, int inner,
+                    std::size_t& work, F&& f, Poll&& poll) {
   double v[3][3];
   for (int k = 0; k < 3; ++k)
     for (int a = 0; a < 3; ++a) v[k][a] = double(p.data[3 * k + a]);
@@ -228,6 +234,7 @@ void triangle_cells(const Primitive& p, const int lo[3], const int hi[3], const 
   double pmin[3][3], pmax[3][3];
   for (int k = 0; k < 3; ++k)
     for (int a = 0; a < 3; ++a) {
+      if (inner >= 0 && a != inner) continue;  // not tested
       const int b = (a + 1) % 3, c = (a + 2) % 3;
       double lo_p = std::numeric_limits<double>::infinity(), hi_p = -lo_p;
       for (int j = 0; j < 3; ++j) {
@@ -247,18 +254,33 @@ void triangle_cells(const Primitive& p, const int lo[3], const int hi[3], const 
     return pmin[k][a] - pc > r || pmax[k][a] - pc < -r;
   };
   const auto slab_separated = [&](int a, double c, double h) { return vmin[a] - c > h || vmax[a] - c < -h; };
+  const bool x_edges = inner < 1;  // the edges crossed with x are tested (per row)
   for (int z = lo[2]; z <= hi[2]; ++z) {
     const double cz = s.c[2][std::size_t(z - lo[2])], hz = s.h[2][std::size_t(z - lo[2])];
     if (slab_separated(2, cz, hz)) continue;
     for (int y = lo[1]; y <= hi[1]; ++y) {
       if ((++work & 4095u) == 0) poll();
       const double cy = s.c[1][std::size_t(y - lo[1])], hy = s.h[1][std::size_t(y - lo[1])];
-      if (slab_separated(1, cy, hy) || separated(0, 0, cy, hy, cz, hz) || separated(1, 0, cy, hy, cz, hz) ||
-          separated(2, 0, cy, hy, cz, hz))
+      if (slab_separated(1, cy, hy) || (x_edges && (separated(0, 0, cy, hy, cz, hz) ||
+                                                    separated(1, 0, cy, hy, cz, hz) || separated(2, 0, cy, hy, cz, hz))))
         continue;
+      if (inner == 0) {  // the row's one cell (lo[0] == hi[0]): its plane's test is done
+        f(lo[0], y, z);
+        continue;
+      }
+      if (inner > 0) {
+        for (int x = lo[0]; x <= hi[0]; ++x) {
+          const double cx = s.c[0][std::size_t(x - lo[0])], hx = s.h[0][std::size_t(x - lo[0])];
+          if (slab_separated(0, cx, hx)) continue;
+          bool sep = false;
+          for (int k = 0; k < 3 && !sep; ++k)
+            sep = inner == 1 ? separated(k, 1, cz, hz, cx, hx) : separated(k, 2, cx, hx, cy, hy);
+          if (!sep) f(x, y, z);
+        }
+        continue;
+      }
       const double n_yz = n[1] * cy + n[2] * cz, r_yz = an[1] * hy + an[2] * hz;
       for (int x = lo[0]; x <= hi[0]; ++x) {
-        if ((++work & 4095u) == 0) poll();
         const double cx = s.c[0][std::size_t(x - lo[0])], hx = s.h[0][std::size_t(x - lo[0])];
         if (slab_separated(0, cx, hx)) continue;
         const double d = nv0 - (n[0] * cx + n_yz), r = an[0] * hx + r_yz;
@@ -272,29 +294,45 @@ void triangle_cells(const Primitive& p, const int lo[3], const int hi[3], const 
   }
 }
 
-// Conservative cell membership of primitive `p` in the grid `info` whose
-// cells are inflated by eps[a] on axis a: calls f(x, y, z) for every cell
-// its surface may touch, in z, y, x order, and poll() every 4096 cells or
-// rows tested. `spans` is scratch.
+// Conservative cell membership of primitive `p`, whose bounds are `pb`, in
+// the grid `info` whose cells are inflated by eps[a] on axis a: calls
+// f(x, y, z) for every cell its surface may touch, in z, y, x order, and
+// poll() every 4096 rows of cells tested (a row is at most 512 cells) or
+// one-cell primitives. `spans` is scratch.
 template <class F, class Poll>
-void for_each_overlapped_cell(const GridInfo& info, const double eps[3], const Primitive& p, CellSpans& spans,
-                              std::size_t& work, F&& f, Poll&& poll) {
+void for_each_overlapped_cell(const GridInfo& info, const double eps[3], const Primitive& p, const Bounds3& pb,
+                              CellSpans& spans, std::size_t& work, F&& f, Poll&& poll) {
   const Bounds3& b = info.bounds;
-  const Bounds3 pb = p.bounds();
   int lo[3], hi[3];
+  int inner = 0;       // axes on which the box, unclamped, lies within one cell
+  int inner_axis = -1;  // the last of them
   for (int a = 0; a < 3; ++a) {
     const double l = (double(pb.lower[a]) - eps[a] - b.lower[a]) * info.inv_cell_size[a];
     const double h = (double(pb.upper[a]) + eps[a] - b.lower[a]) * info.inv_cell_size[a];
     lo[a] = clamped_floor(l, info.res[a]);
     hi[a] = clamped_floor(h, info.res[a]);
+    if (lo[a] == hi[a] && l >= 0.0 && h < double(info.res[a])) ++inner, inner_axis = a;
   }
   if (lo[0] == hi[0] && lo[1] == hi[1] && lo[2] == hi[2]) {  // the box's one cell
     if ((++work & 4095u) == 0) poll();
     f(lo[0], lo[1], lo[2]);
     return;
   }
+  // A triangle whose box lies within one cell on two axes touches every
+  // cell of the row its box spans on the third: it is connected, so it
+  // meets every slab of that axis its box meets, and on the other two axes
+  // it lies inside the row's cells. The separating-axis test would list the
+  // same cells.
+  if (p.kind == PrimitiveKind::kTriangle && inner == 2) {
+    for (int z = lo[2]; z <= hi[2]; ++z)
+      for (int y = lo[1]; y <= hi[1]; ++y) {
+        if ((++work & 4095u) == 0) poll();
+        for (int x = lo[0]; x <= hi[0]; ++x) f(x, y, z);
+      }
+    return;
+  }
   fill_cell_spans(info, eps, lo, hi, spans);
-  if (p.kind == PrimitiveKind::kTriangle) return triangle_cells(p, lo, hi, spans, work, f, poll);
+  if (p.kind == PrimitiveKind::kTriangle) return triangle_cells(p, lo, hi, spans, inner_axis, work, f, poll);
   if (p.kind == PrimitiveKind::kSphere) return sphere_cells(p, lo, hi, spans, work, f, poll);
   // Cone: the cell's bounding sphere must reach the capsule around the axis
   // segment with the larger radius (conservative; much tighter than the box
@@ -304,9 +342,9 @@ void for_each_overlapped_cell(const GridInfo& info, const double eps[3], const P
   const double len2 = ax[0] * ax[0] + ax[1] * ax[1] + ax[2] * ax[2];
   const double radius = std::max(std::fabs(double(p.data[3])), std::fabs(double(p.data[7])));
   for (int z = lo[2]; z <= hi[2]; ++z)
-    for (int y = lo[1]; y <= hi[1]; ++y)
+    for (int y = lo[1]; y <= hi[1]; ++y) {
+      if ((++work & 4095u) == 0) poll();
       for (int x = lo[0]; x <= hi[0]; ++x) {
-        if ((++work & 4095u) == 0) poll();
         const std::size_t i[3] = {std::size_t(x - lo[0]), std::size_t(y - lo[1]), std::size_t(z - lo[2])};
         const double c[3] = {spans.c[0][i[0]], spans.c[1][i[1]], spans.c[2][i[2]]};
         const double h[3] = {spans.h[0][i[0]], spans.h[1][i[1]], spans.h[2][i[2]]};
@@ -321,6 +359,7 @@ void for_each_overlapped_cell(const GridInfo& info, const double eps[3], const P
         const double reach = radius + std::sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
         if (d2 <= reach * reach) f(x, y, z);
       }
+    }
 }
 
 // The inflation of the cells of `info` for conservative membership: 1e-4 of
@@ -380,7 +419,8 @@ Grid build_uniform_grid(const Database& db, const GridParams& params) {
   };
   for (std::uint32_t pi = 0; pi < db.primitives.size(); ++pi) {
     if ((pi & 4095u) == 0) poll_stop();
-    for_each_overlapped_cell(info, eps, db.primitives[pi], spans, work,
+    const Primitive& p = db.primitives[pi];
+    for_each_overlapped_cell(info, eps, p, p.bounds(), spans, work,
                              [&](int x, int y, int z) { pairs.emplace_back(info.cell_index(x, y, z), pi); }, poll_stop);
   }
   pairs_to_csr(pairs, ncells, grid.cell_start, grid.cell_primitives);
@@ -438,10 +478,28 @@ void choose_adaptive_resolution(const Bounds3& box, double cells, int max_resolu
 // over directions).
 constexpr double kSurfaceCellsPerArea = 1.5;
 
+// x^(2/3) for x in [0, 1], within an ulp or two of std::cbrt(x * x): a
+// first guess from the exponent bits, then Halley's iteration for the cube
+// root (cubic convergence: 3% -> 1e-5 -> 1e-15 -> rounding). libm's cbrt
+// was a fifth of the build of a scene of many partly covered spheres.
+double two_thirds_power(double x) {
+  const double y = x * x;
+  if (!(y >= 1e-290)) return y > 0.0 ? std::cbrt(y) : 0.0;  // tiny (or NaN): rare, by the library
+  double r = std::bit_cast<double>(0x2A9F7893782DA1CEull + std::bit_cast<std::uint64_t>(y) / 3);
+  for (int i = 0; i < 3; ++i) {
+    const double r3 = r * r * r;
+    r *= (r3 + 2.0 * y) / (2.0 * r3 + y);
+  }
+  return r;
+}
+
 class AdaptiveBuilder {
  public:
   AdaptiveBuilder(const Database& db, const GridParams& params, Grid& grid)
-      : db_(db), params_(params), grid_(grid), mag_eps_(magnitude_eps(grid_bounds(db))) {}
+      : db_(db), params_(params), grid_(grid), mag_eps_(magnitude_eps(grid_bounds(db))) {
+    bounds_.reserve(db.primitives.size());
+    for (const Primitive& p : db.primitives) bounds_.push_back(p.bounds());
+  }
 
   // Builds the grid `info` over `prims` (ascending ids) at `level`, with
   // `large` (ascending ids) in the leaf after its cells (SubGrid); returns
@@ -462,15 +520,15 @@ class AdaptiveBuilder {
                                      db_.primitives.size(), grid_.sub_grids.size()));
     };
     // This grid's cell lists (CSR, by a counting sort of (cell, primitive)).
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
-    pairs.reserve(prims.size() * 2);
+    pairs_.clear();  // scratch kept across grids: its capacity is reused
+    pairs_.reserve(prims.size() * 2);
     for (const std::uint32_t pi : prims)
-      for_each_overlapped_cell(info, eps, db_.primitives[pi], spans_, work_,
-                               [&](int x, int y, int z) { pairs.emplace_back(info.cell_index(x, y, z), pi); }, poll);
+      for_each_overlapped_cell(info, eps, db_.primitives[pi], bounds_[pi], spans_, work_,
+                               [&](int x, int y, int z) { pairs_.emplace_back(info.cell_index(x, y, z), pi); }, poll);
     Grid local;
     local.info = info;
-    pairs_to_csr(pairs, ncells, local.cell_start, local.cell_primitives);
-    pairs = {};
+    pairs_to_csr(pairs_, ncells, local.cell_start, local.cell_primitives);
+    pairs_.clear();
     // A cell holding a sub-grid lists primitives, so it counts as non-empty.
     compute_empty_distance(local, params_.skip_empty);
     // Leaf first + c for every cell c, a placeholder (no list) where the
@@ -533,7 +591,7 @@ class AdaptiveBuilder {
     std::vector<std::uint32_t> others;
     Bounds3 small_box;
     for (const std::uint32_t id : list) {
-      const Bounds3 pb = db_.primitives[id].bounds();
+      const Bounds3& pb = bounds_[id];
       int spanned = 0;
       for (int a = 0; a < 3; ++a) {
         const double lo = std::max(double(pb.lower[a]), double(cell.lower[a]));
@@ -585,7 +643,7 @@ class AdaptiveBuilder {
     double refs = 0;
     for (const std::uint32_t id : list) {
       const Primitive& p = db_.primitives[id];
-      const Bounds3 pb = p.bounds();
+      const Bounds3& pb = bounds_[id];
       double k = 1, share = 1;
       for (int a = 0; a < 3; ++a) {
         const double lo = std::max(double(pb.lower[a]), double(sub.bounds.lower[a]));
@@ -596,7 +654,7 @@ class AdaptiveBuilder {
       }
       if (p.kind == PrimitiveKind::kSphere) {
         const double r = double(p.radius());
-        const double area = 4.0 * std::numbers::pi * r * r * std::cbrt(share * share);
+        const double area = 4.0 * std::numbers::pi * r * r * (share < 1.0 ? two_thirds_power(share) : 1.0);
         k = std::min(k, kSurfaceCellsPerArea * area / cell_area + 1.0);
       }
       refs += k;
@@ -615,7 +673,7 @@ class AdaptiveBuilder {
   // no sub-grid axis is degenerate.
   Bounds3 tight_box(const GridInfo& info, const Bounds3& cell, std::span<const std::uint32_t> list) const {
     Bounds3 reach;
-    for (const std::uint32_t id : list) reach.extend(db_.primitives[id].bounds());
+    for (const std::uint32_t id : list) reach.extend(bounds_[id]);
     double eps[3];
     cell_inflation(info, mag_eps_, eps);
     Bounds3 box = cell;
@@ -634,8 +692,10 @@ class AdaptiveBuilder {
   const GridParams& params_;
   Grid& grid_;
   double mag_eps_;
+  std::vector<Bounds3> bounds_;  // of each primitive, by id
   std::size_t work_ = 0;
   CellSpans spans_;  // scratch of for_each_overlapped_cell
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs_;  // scratch of build: (cell, primitive)
 };
 
 Grid build_adaptive_grid(const Database& db, const GridParams& params) {
@@ -686,37 +746,48 @@ void compute_empty_distance(Grid& grid, bool skip_empty) {
   std::vector<std::uint8_t> p(std::size_t(px * py * pz), std::uint8_t(kMaxEmptyDistance));
   const auto padded = [&](int x, int y, int z) { return ((z + 1) * py + (y + 1)) * px + (x + 1); };
   for (int z = 0; z < rz; ++z)
-    for (int y = 0; y < ry; ++y)
-      for (int x = 0; x < rx; ++x) p[std::size_t(padded(x, y, z))] = d[info.cell_index(x, y, z)];
+    for (int y = 0; y < ry; ++y) std::copy_n(&d[info.cell_index(0, y, z)], rx, &p[std::size_t(padded(0, y, z))]);
   // The 13 neighbours before a cell in forward raster order: the previous
   // plane (dz = -1, all 9), the previous row (dy = -1, dz = 0, all 3), the
-  // previous cell (dx = -1). The backward scan uses their negatives.
-  std::ptrdiff_t offsets[13];
-  int k = 0;
-  for (int dz = -1; dz <= 0; ++dz)
-    for (int dy = -1; dy <= 1; ++dy)
-      for (int dx = -1; dx <= 1; ++dx)
-        if (!(dz == 0 && (dy > 0 || (dy == 0 && dx >= 0)))) offsets[k++] = (dz * py + dy) * px + dx;
+  // previous cell (dx = -1); the backward scan uses their negatives. The
+  // previous plane is final before a plane is scanned, so the minimum of its
+  // nine is taken for the whole plane at once, separably (over dx, then
+  // over dy) in loops the compiler vectorises; the row and cell terms then
+  // run cell by cell.
+  const std::ptrdiff_t plane = px * py;
+  std::vector<std::uint8_t> across(static_cast<std::size_t>(plane)), nine(static_cast<std::size_t>(plane));
   std::uint8_t* const base = p.data();
   for (int pass = 0; pass < 2; ++pass) {
     const std::ptrdiff_t s = pass == 0 ? 1 : -1;
     for (int zi = 0; zi < rz; ++zi) {
       const int z = s > 0 ? zi : rz - 1 - zi;
+      std::uint8_t* const cur = base + (z + 1) * plane;
+      const std::uint8_t* __restrict const prev_plane = cur - s * plane;
+      // Raw restrict pointers: bytes may alias anything, and the loops
+      // vectorise only when the compiler knows these do not.
+      std::uint8_t* __restrict const t = across.data();
+      std::uint8_t* __restrict const m = nine.data();
+      for (std::ptrdiff_t i = 1; i < plane - 1; ++i)
+        t[i] = std::min({prev_plane[i - 1], prev_plane[i], prev_plane[i + 1]});
+      for (std::ptrdiff_t i = px; i < plane - px; ++i) m[i] = std::min({t[i - px], t[i], t[i + px]});
       for (int yi = 0; yi < ry; ++yi) {
         const int y = s > 0 ? yi : ry - 1 - yi;
-        std::uint8_t* cell = base + padded(s > 0 ? 0 : rx - 1, y, z);
-        for (int xi = 0; xi < rx; ++xi, cell += s) {
-          if (*cell <= 1) continue;  // non-empty, or next to a non-empty cell already
-          int best = *cell;
-          for (const std::ptrdiff_t o : offsets) best = std::min(best, cell[s * o] + 1);
-          *cell = std::uint8_t(best);
+        const std::ptrdiff_t row = (y + 1) * px + 1;  // cell (0, y) in the plane
+        std::uint8_t* const c = cur + row;
+        const std::uint8_t* const up = c - s * px;  // the row scanned before
+        const std::uint8_t* const mr = m + row;
+        int before = kMaxEmptyDistance;  // the padding before the row
+        for (int xi = 0; xi < rx; ++xi) {
+          const int x = s > 0 ? xi : rx - 1 - xi;
+          const int near = std::min({int(mr[x]), int(up[x - 1]), int(up[x]), int(up[x + 1]), before});
+          before = std::min(int(c[x]), near + 1);  // at most the cap, 254: within a byte
+          c[x] = std::uint8_t(before);
         }
       }
     }
   }
   for (int z = 0; z < rz; ++z)
-    for (int y = 0; y < ry; ++y)
-      for (int x = 0; x < rx; ++x) d[info.cell_index(x, y, z)] = p[std::size_t(padded(x, y, z))];
+    for (int y = 0; y < ry; ++y) std::copy_n(&p[std::size_t(padded(0, y, z))], rx, &d[info.cell_index(0, y, z)]);
 }
 
 }  // namespace raynode::core

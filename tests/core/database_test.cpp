@@ -385,6 +385,68 @@ TEST_CASE("grid build: every primitive is listed in every cell its surface passe
   }
 }
 
+TEST_CASE("grid build: a triangle is listed in exactly the cells it meets, flat, thin or slanted") {
+  // Triangles of about one to three cells, a third of them flat on one axis
+  // (most within one cell's slab) and a third on two (most a row of cells):
+  // each is listed in a cell if and only if it meets the cell's box, up to
+  // the builder's inflation of the boxes (1e-4 of a cell); checked against
+  // the separating-axis test on every cell of its box and the two around it.
+  Rng rng(11);
+  Scene s;
+  const int res = 16;
+  const float cell = 2.0f / float(res);
+  for (int i = 0; i < 600; ++i) {
+    const int flat_axes = i % 3;
+    const Vec3 c = random_in_cube(rng, 0.8f);
+    Vec3 v[3];
+    for (Vec3& p : v) p = c + random_unit(rng) * (cell * uniform(rng, 0.3f, 1.5f));
+    for (int k = 0; k < flat_axes; ++k) {
+      const int a = (i / 3 + k) % 3;
+      for (Vec3& p : v) {  // within 1/20 of a cell on axis a: mostly one cell's slab
+        float& x = a == 0 ? p.x : (a == 1 ? p.y : p.z);
+        x = c[a] + cell * uniform(rng, 0.0f, 0.05f);
+      }
+    }
+    s.add_polygon(v, 3);
+  }
+  const Database db = make_database(s);
+  GridParams gp;
+  gp.kind = GridKind::kUniform;
+  gp.resolution[0] = gp.resolution[1] = gp.resolution[2] = res;
+  const Grid g = build_grid(db, gp);
+  const GridInfo& info = g.info;
+  std::vector<std::set<std::uint32_t>> lists(db.primitives.size());
+  for (std::uint32_t c = 0; c < info.cell_count(); ++c)
+    for (std::uint32_t k = g.cell_start[c]; k < g.cell_start[c + 1]; ++k) lists[g.cell_primitives[k]].insert(c);
+  std::size_t missing = 0, spurious = 0, listed = 0, multi_cell = 0;
+  for (std::uint32_t pi = 0; pi < db.primitives.size(); ++pi) {
+    const Primitive& p = db.primitives[pi];
+    if (p.kind != PrimitiveKind::kTriangle) continue;
+    multi_cell += lists[pi].size() > 1;
+    const Bounds3 pb = p.bounds();
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::max(0, int(std::floor((pb.lower[a] - info.bounds.lower[a]) / info.cell_size[a])) - 1);
+      hi[a] = std::min(info.res[a] - 1, int(std::floor((pb.upper[a] - info.bounds.lower[a]) / info.cell_size[a])) + 1);
+    }
+    for (int z = lo[2]; z <= hi[2]; ++z)
+      for (int y = lo[1]; y <= hi[1]; ++y)
+        for (int x = lo[0]; x <= hi[0]; ++x) {
+          const Bounds3 box = info.cell_bounds(x, y, z);
+          const Vec3 grow = info.cell_size * 2e-4f;
+          const bool in_list = lists[pi].count(info.cell_index(x, y, z)) > 0;
+          listed += in_list;
+          missing += !in_list && triangle_overlaps_box(p.vertex(0), p.vertex(1), p.vertex(2), box);
+          spurious += in_list && !triangle_overlaps_box(p.vertex(0), p.vertex(1), p.vertex(2),
+                                                        Bounds3{box.lower - grow, box.upper + grow});
+        }
+  }
+  CHECK(missing == 0);
+  CHECK(spurious == 0);
+  CHECK(multi_cell > 200);  // the row, plane and general tests all ran
+  CHECK(listed > 1000);
+}
+
 TEST_CASE("grid build: SPD reference scenes list every primitive in every cell it touches") {
   RAYNODE_REQUIRE_SCENES(dir);
   for (const char* name : {"teapot-s2.nff", "rings-s1.nff", "balls-s1-t1.nff", "mount-s1-t1.nff", "tetra-s1.nff"}) {
