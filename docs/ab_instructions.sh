@@ -12,8 +12,12 @@
 # intersect_any: traversal and intersection tests, not shading). OUT.csv
 # gets a row per run: build (old|new), scene, instructions, rays, cells
 # visited and tests, and whether the new image equals the old one byte for
-# byte. Needs valgrind (apt-get install valgrind).
+# byte. With COLLECT=build in the environment it counts the instructions
+# inside build_grid instead (the grid's build, once per run). Needs
+# valgrind (apt-get install valgrind).
 set -u
+collect=(--toggle-collect='*intersect_closest<*' --toggle-collect='*intersect_any<*')
+[ "${COLLECT:-queries}" = build ] && collect=(--toggle-collect='raynode::core::build_grid*')
 old=$(realpath "${1:?OLD}"); new=$(realpath "${2:?NEW}"); out=$(realpath -m "${3:?OUT.csv}")
 shift 3
 command -v valgrind > /dev/null || { echo "ab_instructions.sh: valgrind is not installed" >&2; exit 1; }
@@ -24,8 +28,7 @@ for spec in "$@"; do
   n=$((n + 1))
   for build in old new; do
     bin=$old; [ "$build" = new ] && bin=$new
-    valgrind --tool=callgrind --callgrind-out-file="$tmp/$build.$n.out" \
-      --toggle-collect='*intersect_closest<*' --toggle-collect='*intersect_any<*' \
+    valgrind --tool=callgrind --callgrind-out-file="$tmp/$build.$n.out" "${collect[@]}" \
       "$bin" render "$spec" --mode sequential --width 64 --height 64 -o "$tmp/$build.$n.ppm" \
       --stats="$tmp/$build.$n.json" > "$tmp/$build.$n.log" 2>&1 || { echo "ab_instructions.sh: $build failed on $spec:" >&2; grep -v "^==" "$tmp/$build.$n.log" | tail -n 3 >&2; exit 1; }
     ir=$(grep -o 'Collected : [0-9]*' "$tmp/$build.$n.log" | awk '{print $3}')
