@@ -297,7 +297,7 @@ void triangle_cells(const Primitive& p, const int lo[3], const int hi[3], const 
 // Conservative cell membership of primitive `p`, whose bounds are `pb`, in
 // the grid `info` whose cells are inflated by eps[a] on axis a: calls
 // f(x, y, z) for every cell its surface may touch, in z, y, x order, and
-// poll() every 4096 rows of cells tested (a row is at most 512 cells) or
+// poll() every 4096 rows of cells tested (a row: at most one axis's cells) or
 // one-cell primitives. `spans` is scratch.
 template <class F, class Poll>
 void for_each_overlapped_cell(const GridInfo& info, const double eps[3], const Primitive& p, const Bounds3& pb,
