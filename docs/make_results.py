@@ -805,7 +805,7 @@ def section_robust_cost(src):
         ["scene", "grid / Embree, epsilon offsets", "grid / Embree, robust", "robust / epsilon",
          "grid time, robust / epsilon", "tests per ray, epsilon / robust"], body,
         ["- Each build's grid time is taken over Embree's on the same run's rays, which cancels the machine's "
-         "speed between runs; the two builds' rays differ only in where secondary rays start.",
+         "speed between runs. The two builds' secondary rays start at different points (an error bound against a fixed offset).",
          "- Above 3%: " + (", ".join(over) if over else "none") + ". rings gains from the cone test on the "
          "unnormalised axis (the section above)."])
 
