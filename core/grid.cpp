@@ -261,8 +261,9 @@ void triangle_cells(const Primitive& p, const int lo[3], const int hi[3], const 
     for (int y = lo[1]; y <= hi[1]; ++y) {
       if ((++work & 4095u) == 0) poll();
       const double cy = s.c[1][std::size_t(y - lo[1])], hy = s.h[1][std::size_t(y - lo[1])];
-      if (slab_separated(1, cy, hy) || (x_edges && (separated(0, 0, cy, hy, cz, hz) ||
-                                                    separated(1, 0, cy, hy, cz, hz) || separated(2, 0, cy, hy, cz, hz))))
+      if (slab_separated(1, cy, hy)) continue;
+      if (x_edges && (separated(0, 0, cy, hy, cz, hz) || separated(1, 0, cy, hy, cz, hz) ||
+                      separated(2, 0, cy, hy, cz, hz)))
         continue;
       if (inner == 0) {  // the row's one cell (lo[0] == hi[0]): its plane's test is done
         f(lo[0], y, z);
