@@ -597,21 +597,36 @@ def section_accel(src):
     ])
 
 
-def ab_pairs(name):
-    """docs/ab_pair.sh's rows in results/NAME, per scene in file order: (scene, old runs, new runs, the medians
-    of grid/Embree old and new, the median of the paired old/new grid rays/s, i.e. new/old grid time)."""
+def ab_rounds(name):
+    """docs/ab_pair.sh's rows in results/NAME, per scene in file order: (scene, old runs, new runs), each build's
+    runs by round."""
     rows = read_csv(os.path.join(RESULTS, name))
     runs = {}
     for r in rows:
         runs.setdefault((r["scene"], r["binary"]), {})[r["round"]] = r
-    out = []
-    for scene in dict.fromkeys(r["scene"] for r in rows):
-        old, new = runs[(scene, "old")], runs[(scene, "new")]
-        paired = [float(old[k]["grid_rays_per_s"]) / float(new[k]["grid_rays_per_s"]) for k in old if k in new]
-        out.append((scene, list(old.values()), list(new.values()),
-                    median(float(r["grid_over_embree_time"]) for r in old.values()),
-                    median(float(r["grid_over_embree_time"]) for r in new.values()), median(paired)))
-    return out
+    return [(scene, runs[(scene, "old")], runs[(scene, "new")]) for scene in dict.fromkeys(r["scene"] for r in rows)]
+
+
+def paired_median(a, b, value):
+    """The median over the rounds both builds ran of value(a's run) / value(b's run); a and b are runs by round."""
+    return median(value(a[k]) / value(b[k]) for k in a if k in b)
+
+
+def ab_pairs(name):
+    """docs/ab_pair.sh's rows in results/NAME, per scene in file order: (scene, old runs, new runs, the medians
+    of grid/Embree old and new, the median of the paired old/new grid rays/s, i.e. new/old grid time)."""
+    return [(scene, list(old.values()), list(new.values()),
+             median(float(r["grid_over_embree_time"]) for r in old.values()),
+             median(float(r["grid_over_embree_time"]) for r in new.values()),
+             paired_median(old, new, lambda r: float(r["grid_rays_per_s"])))
+            for scene, old, new in ab_rounds(name)]
+
+
+def ab_instruction_rows(name):
+    """docs/ab_instructions.sh's rows in results/NAME, per scene in file order: (scene, old row, new row)."""
+    rows = read_csv(os.path.join(RESULTS, name))
+    runs = {(r["scene"], r["binary"]): r for r in rows}
+    return [(scene, runs[(scene, "old")], runs[(scene, "new")]) for scene in dict.fromkeys(r["scene"] for r in rows)]
 
 
 AB_PAIR_HOW = " Medians over the rounds; the time ratio pairs the two builds' runs of one round:"
@@ -676,11 +691,8 @@ def instructions_section(src, name, title, what, notes):
     """A results section from docs/ab_instructions.sh's rows in results/NAME: per scene, the instructions per ray
     inside the tracer's queries before and after a change, the cells per ray after it and whether the image is the
     same."""
-    rows = read_csv(os.path.join(RESULTS, name))
-    runs = {(r["scene"], r["binary"]): r for r in rows}
     body = []
-    for scene in dict.fromkeys(r["scene"] for r in rows):
-        old, new = runs[(scene, "old")], runs[(scene, "new")]
+    for scene, old, new in ab_instruction_rows(name):
         per_ray = [float(r["instructions"]) / float(r["rays"]) for r in (old, new)]
         body.append([scene, thousands(round(per_ray[0])), thousands(round(per_ray[1])), f"{per_ray[1] / per_ray[0]:.3f}",
                      f"{float(new['cells_visited']) / float(new['rays']):.1f}", new["image_equal"]])
@@ -728,31 +740,23 @@ def section_simd_walk(src):
 
 def section_build_and_cones(src):
     wall, build_ir, query_ir = "build-cone-ab-2core.csv", "build-instructions.csv", "cone-instructions.csv"
-    runs = {}
-    for r in read_csv(os.path.join(RESULTS, wall)):
-        runs.setdefault((r["scene"], r["binary"]), {})[r["round"]] = r
-
-    def ir(name):
-        rows = {(r["scene"], r["binary"]): r for r in read_csv(os.path.join(RESULTS, name))}
-        return {scene: (float(rows[(scene, "old")]["instructions"]), float(rows[(scene, "new")]["instructions"]),
-                        float(rows[(scene, "old")]["rays"]), rows[(scene, "new")]["image_equal"])
-                for scene, _ in rows}
-
-    built, traced = ir(build_ir), ir(query_ir)
+    built = {scene: (old, new) for scene, old, new in ab_instruction_rows(build_ir)}
+    traced = {scene: (old, new) for scene, old, new in ab_instruction_rows(query_ir)}
     build_rows, trace_rows = [], []
-    for scene, *_ in ab_pairs(wall):
-        old, new = runs[(scene, "old")], runs[(scene, "new")]
-        rounds = [k for k in old if k in new]
-        paired_build = median(float(new[k]["grid_build_s"]) / float(old[k]["grid_build_s"]) for k in rounds)
-        over = [median(float(r["grid_build_s"]) / float(r["embree_build_s"]) for r in runs_.values())
-                for runs_ in (old, new)]
-        b_old, b_new, _, _ = built[scene]
+    for scene, old, new in ab_rounds(wall):
+        paired_build = paired_median(new, old, lambda r: float(r["grid_build_s"]))  # new / old
+        over = [median(float(r["grid_build_s"]) / float(r["embree_build_s"]) for r in runs.values())
+                for runs in (old, new)]
+        b_old, b_new = (float(r["instructions"]) for r in built[scene])
         build_rows.append([scene, f"{b_old / 1e6:.1f}M", f"{b_new / 1e6:.1f}M", f"{b_new / b_old:.3f}",
                            f"{paired_build:.2f}", f"{over[0]:.2f}", f"{over[1]:.2f}"])
-    for scene, _, _, ro, rn, paired in ab_pairs(wall):
-        q_old, q_new, rays, same = traced[scene]
-        trace_rows.append([scene, thousands(round(q_old / rays)), thousands(round(q_new / rays)),
-                           f"{q_new / q_old:.3f}", same, f"{paired:.2f}", f"{ro:.2f}", f"{rn:.2f}"])
+        q_old, q_new = traced[scene]
+        per_ray = [float(r["instructions"]) / float(r["rays"]) for r in (q_old, q_new)]
+        ro, rn = (median(float(r["grid_over_embree_time"]) for r in runs.values()) for runs in (old, new))
+        paired = paired_median(old, new, lambda r: float(r["grid_rays_per_s"]))
+        trace_rows.append([scene, thousands(round(per_ray[0])), thousands(round(per_ray[1])),
+                           f"{per_ray[1] / per_ray[0]:.3f}", q_new["image_equal"], f"{paired:.2f}", f"{ro:.2f}",
+                           f"{rn:.2f}"])
     slower = [r for r in build_rows if float(r[5]) > 1.0 and float(r[6]) > 1.0]
     return "\n".join([
         "## Cheaper grid builds and cone tests",
