@@ -105,7 +105,7 @@ CLI::Validator finite_positive();
 /// no option is silently ignored: a node option (--node-memory, --clock,
 /// --stall-timeout, ...) outside the node modes, the static submaps' and work
 /// requests' options outside replicated and svm, --page-size, --cache and
-/// --directory-order outside svm, --partition, --queue-capacity and --send-queue outside
+/// --directory-order and --primitive-order outside svm, --partition, --queue-capacity and --send-queue outside
 /// dataflow, --subsample where neither dataflow nor --submaps balanced
 /// reads it, --network-scale without --network ipsc2 (--submaps and
 /// --network are read from `cmd`: their values, or their defaults when not

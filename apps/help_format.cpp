@@ -79,7 +79,7 @@ const std::map<std::string, std::string>& option_groups() {
       {"mail-wakeups", "Machine"}, {"stall-timeout", "Machine"}, {"work-item", "Machine"},
       {"work-requests", "Machine"}, {"work-grants", "Machine"}, {"submaps", "Machine"},
       // The paper's two algorithms
-      {"page-size", "svm"}, {"directory-order", "svm"}, {"cache", "svm"}, {"caches", "svm"},
+      {"page-size", "svm"}, {"directory-order", "svm"}, {"primitive-order", "svm"}, {"cache", "svm"}, {"caches", "svm"},
       {"page-sizes", "svm"},
       {"subsample", "dataflow"}, {"partition", "dataflow"}, {"queue-capacity", "dataflow"}, {"send-queue", "dataflow"},
       // What is written, and when to stop

@@ -135,6 +135,9 @@ void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) 
     c.add_option("--directory-order", o.directory_order, kDirectoryOrderHelp)
         ->check(CLI::IsMember({"auto", "linear", "bricked"}))
         ->capture_default_str();
+    c.add_option("--primitive-order", o.primitive_order, kPrimitiveOrderHelp)
+        ->check(CLI::IsMember({"auto", "file", "cell"}))
+        ->capture_default_str();
   }
   if (set.cache)
     c.add_option("--cache", o.cache,
@@ -250,6 +253,11 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
     s.directory_order = svm::parse_directory_order(o.directory_order);
   } catch (const std::invalid_argument& e) {
     throw UsageError(std::string("--directory-order: ") + e.what());
+  }
+  try {
+    s.primitive_order = svm::parse_primitive_order(o.primitive_order);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--primitive-order: ") + e.what());
   }
   parse_cache(o.cache, s.cache_pages, s.cache_fraction);
   s.subsample = o.subsample;

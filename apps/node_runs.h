@@ -59,6 +59,13 @@ inline constexpr const char* kDirectoryOrderHelp =
     "pages a node fetches) or auto (bricked on more than one node; on one node every page is home and the "
     "linear walk is cheaper). Same images";
 
+/// Help text of --primitive-order (render and the node benchmarks).
+inline constexpr const char* kPrimitiveOrderHelp =
+    "svm: order of the paged primitive records: file (the database's, the paper's), cell (as the cells, "
+    "walked in the directory's order, first list them, so that a cell's primitives share pages) or auto "
+    "(with the adaptive grid, the one whose cell lists name fewer pages, cells weighted by their "
+    "surface; file with --grid uniform). Same images";
+
 /// The machine and mode options as typed on the command line (strings where
 /// the text is parsed later, so errors can name the option).
 struct NodeRunOptions {
@@ -89,6 +96,7 @@ struct NodeRunOptions {
   // svm
   std::uint32_t page_size = 1024;       ///< bytes
   std::string directory_order = "auto"; ///< auto, linear or bricked (svm::parse_directory_order)
+  std::string primitive_order = "auto"; ///< auto, file or cell (svm::parse_primitive_order)
   std::string cache;                    ///< "" = all free memory, "N" pages or "P%" of the database
   // dataflow
   int subsample = 8;                    ///< load estimate (and --submaps balanced's): one pixel per NxN block
@@ -117,7 +125,7 @@ inline core::ShadowRays shadow_rays_from_name(const std::string& word) {
 /// Which options add_node_run_options adds besides the machine's.
 struct NodeRunOptionSet {
   bool experiment = true;  ///< --width, --height, --grid, --skip-empty, --timeout (per run), --repeat
-  bool page_size = true;   ///< --page-size, --directory-order (svm)
+  bool page_size = true;   ///< --page-size, --directory-order, --primitive-order (svm)
   bool cache = false;      ///< --cache N|P% (svm)
   bool dataflow = true;    ///< --partition, --queue-capacity, --send-queue
 };

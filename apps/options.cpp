@@ -268,6 +268,7 @@ const std::vector<ModeOptionRule>& mode_option_rules() {
       {"--page-size", kSvm, "the shared virtual memory's pages"},
       {"--cache", kSvm, "the shared virtual memory's page cache"},
       {"--directory-order", kSvm, "the shared virtual memory's cell directory"},
+      {"--primitive-order", kSvm, "the shared virtual memory's primitive records"},
       {"--page-fetch", kSvm, "the shared virtual memory's page faults"},
       {"--partition", kDataflow, "its regions"},
       {"--queue-capacity", kDataflow, "its ray queues"},

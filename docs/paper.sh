@@ -9,8 +9,9 @@
 #
 # RAYNODE defaults to build/apps/raynode, OUT to docs/results/paper. Every
 # run uses --machine ipsc2 (4 MiB nodes, 1 KiB pages, hypercube, model
-# clock, the iPSC/2's documented costs) and --shadow-rays all (the paper's
-# ray count). SIZE (default 512, the paper's) is Table 3's image side,
+# clock, the iPSC/2's documented costs), --shadow-rays all (the paper's
+# ray count) and --grid uniform (the paper's one-level grid, its svm pages
+# holding the primitives in the database's order). SIZE (default 512, the paper's) is Table 3's image side,
 # SWEEP_SIZE (default 512) the cache sweeps'. About 10 minutes on 2 cores.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -30,7 +31,7 @@ run() {  # FILE ARGS...: runs raynode ARGS and records the command that wrote FI
   "$raynode" "$@" > /dev/null
 }
 
-machine=(--machine ipsc2 --shadow-rays all)
+machine=(--machine ipsc2 --shadow-rays all --grid uniform)
 # Table 3's node counts per database (Tetra9 and Tetra10 need 16 and 64
 # nodes of 4 MiB to hold their shared memory, as on the iPSC/2).
 run table3-teapot.json bench nodes teapot:8 --mode svm "${machine[@]}" --nodes 1,2,4,8,16,32,64 \

@@ -101,6 +101,7 @@ RunResult render_svm(const core::Database& db, const core::Grid& grid, const Run
   p.submaps = n.submaps;
   p.page_size = n.page_size;
   p.directory_order = n.directory_order;
+  p.primitive_order = n.primitive_order;
   p.fetch_by_get = n.fetch_by_get;
   p.cache_pages = n.cache_pages;
   p.cache_fraction = n.cache_fraction;

@@ -46,6 +46,7 @@ struct NodeModeParams {
   control::SubmapParams submaps;        ///< replicated, svm: the initial distribution
   std::uint32_t page_size = 1024;     ///< svm: bytes
   std::optional<svm::DirectoryOrder> directory_order;  ///< svm; nullopt = bricked on several nodes
+  std::optional<svm::PrimitiveOrder> primitive_order;  ///< svm; nullopt = auto (svm::SvmParams::primitive_order)
   std::uint32_t cache_pages = 0;      ///< svm: frames per node; 0 = all free memory
   double cache_fraction = 0;          ///< svm: of the database's pages, used when > 0
   std::uint32_t pack_min = 0;         ///< svm: page packed cells of at least this many triangles; 0 = the paper's object lists

@@ -19,6 +19,8 @@ namespace raynode::svm {
 
 namespace {
 
+constexpr std::uint32_t kNoSlot = 0xffffffffu;
+
 bool is_packed(const core::CellBlocks* blocks, std::uint32_t cell) {
   return blocks && blocks->start[cell] != blocks->start[cell + 1];
 }
@@ -128,6 +130,69 @@ const char* segment_name(Segment s) {
   return "?";
 }
 
+const char* primitive_order_name(PrimitiveOrder o) { return o == PrimitiveOrder::kCell ? "cell" : "file"; }
+
+std::optional<PrimitiveOrder> parse_primitive_order(const std::string& text) {
+  if (text == "auto") return std::nullopt;
+  if (text == "file") return PrimitiveOrder::kFile;
+  if (text == "cell") return PrimitiveOrder::kCell;
+  throw std::invalid_argument(fmt::format("primitive order must be auto, file or cell, got '{}'", text));
+}
+
+std::vector<std::uint32_t> primitive_slots(const PageLayout& l, const core::Grid& grid, std::uint32_t primitives) {
+  std::vector<std::uint32_t> slot(primitives);
+  if (l.primitive_order == PrimitiveOrder::kFile) {
+    for (std::uint32_t id = 0; id < primitives; ++id) slot[id] = id;
+    return slot;
+  }
+  std::fill(slot.begin(), slot.end(), kNoSlot);
+  std::uint32_t next = 0;
+  const auto place = [&](std::uint32_t c) {
+    for (std::uint32_t k = grid.cell_start[c]; k < grid.cell_start[c + 1]; ++k) {
+      const std::uint32_t id = grid.cell_primitives[k];
+      if (slot[id] == kNoSlot) slot[id] = next++;
+    }
+  };
+  for_each_cell_in_key_order(l, grid, place);
+  for (std::uint32_t& s : slot)
+    if (s == kNoSlot) s = next++;
+  return slot;
+}
+
+std::vector<double> leaf_weights(const core::Grid& grid) {
+  const auto half_area = [](const core::Vec3& e) { return double(e.x) * e.y + double(e.y) * e.z + double(e.z) * e.x; };
+  std::vector<double> w(grid.leaf_cells(), half_area(grid.info.cell_size));
+  for (std::size_t i = 1; i < grid.sub_grids.size(); ++i) {
+    const core::SubGrid& s = grid.sub_grids[i];
+    std::fill_n(w.begin() + s.first_entry, s.info.cell_count(), half_area(s.info.cell_size));
+    if (s.large_list) w[s.first_entry + s.info.cell_count()] = half_area(s.info.bounds.extent());
+  }
+  return w;  // a cell holding a sub-grid lists nothing: its weight is never used
+}
+
+double list_primitive_pages(const core::Grid& grid, std::span<const double> weights,
+                            std::span<const std::uint32_t> slot, std::uint32_t shift) {
+  double total = 0;
+  std::vector<std::uint32_t> pages;
+  for (std::uint32_t c = 0; c < grid.leaf_cells(); ++c) {
+    pages.clear();
+    for (std::uint32_t k = grid.cell_start[c]; k < grid.cell_start[c + 1]; ++k)
+      pages.push_back(slot[grid.cell_primitives[k]] >> shift);
+    std::sort(pages.begin(), pages.end());
+    total += weights[c] * double(std::unique(pages.begin(), pages.end()) - pages.begin());
+  }
+  return total;
+}
+
+PrimitiveOrder fewer_list_pages(const core::Grid& grid, PageLayout l) {
+  const std::vector<double> w = leaf_weights(grid);
+  l.primitive_order = PrimitiveOrder::kFile;
+  const double file = list_primitive_pages(grid, w, primitive_slots(l, grid, l.primitives), l.primitive_shift);
+  l.primitive_order = PrimitiveOrder::kCell;
+  const double cell = list_primitive_pages(grid, w, primitive_slots(l, grid, l.primitives), l.primitive_shift);
+  return cell < file ? PrimitiveOrder::kCell : PrimitiveOrder::kFile;
+}
+
 const char* directory_order_name(DirectoryOrder o) {
   return o == DirectoryOrder::kBricked ? "bricked" : "linear";
 }
@@ -140,7 +205,7 @@ std::optional<DirectoryOrder> parse_directory_order(const std::string& text) {
 }
 
 PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, std::uint32_t page_size,
-                            const core::CellBlocks* blocks, DirectoryOrder order) {
+                            const core::CellBlocks* blocks, DirectoryOrder order, PrimitiveOrder primitive_order) {
   if (page_size < kMinPageSize || page_size > kMaxPageSize || !std::has_single_bit(page_size))
     throw std::invalid_argument(fmt::format(
         "page size must be a power of two from {} B (one primitive record) to {} B, got {} B", kMinPageSize,
@@ -183,6 +248,7 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
   l.normals_per_page = page_size / std::uint32_t(sizeof(core::TriangleNormals));
 
   l.directory_order = order;
+  l.primitive_order = primitive_order;
   if (order == DirectoryOrder::kBricked)
     l.bricks = core::choose_cell_bricks(grid.info, std::int32_t(1u << l.directory_shift));
 
@@ -236,14 +302,16 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
 }
 
 PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, std::uint32_t page_size,
-                             const core::CellBlocks* blocks, DirectoryOrder order) {
+                             const core::CellBlocks* blocks, DirectoryOrder order, PrimitiveOrder primitive_order) {
   if (grid.empty_distance.size() != grid.leaf_cells() || grid.leaf_cells() < grid.info.cell_count())
     throw std::invalid_argument(fmt::format("svm: the grid has {} empty-space distances for {} cells (not built by "
                                             "core::build_grid?)",
                                             grid.empty_distance.size(), grid.leaf_cells()));
   PagedImage image;
-  image.layout = make_page_layout(db, grid, page_size, blocks, order);
+  image.layout = make_page_layout(db, grid, page_size, blocks, order, primitive_order);
   const PageLayout& l = image.layout;
+  // Every primitive id the pages hold is its slot.
+  const std::vector<std::uint32_t> slot = primitive_slots(l, grid, l.primitives);
   image.pages = HostPages(std::size_t(l.bytes()));
   std::byte* base = image.pages.data();
   auto at = [&](std::uint32_t page, std::uint32_t offset) { return base + (std::size_t(page) << l.page_shift) + offset; };
@@ -264,23 +332,26 @@ PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, s
     if (adaptive && (grid.cell_entries[c] & core::kSubGridEntry))
       put(entry(c), kEmptyCell | (core::kSubGridCode + (grid.cell_entries[c] & ~core::kSubGridEntry)));
     else if (begin == end) put(entry(c), kEmptyCell | grid.empty_distance[c]);
-    else if (end - begin == 1 && !is_packed(blocks, c)) put(entry(c), kSingleCell | grid.cell_primitives[begin]);
+    else if (end - begin == 1 && !is_packed(blocks, c)) put(entry(c), kSingleCell | slot[grid.cell_primitives[begin]]);
   }
   std::byte* lists = at(l.list_first, 0);
   place_lists(l, grid, blocks, [&](std::uint32_t c, std::uint32_t address) {
     const std::uint32_t begin = grid.cell_start[c], end = grid.cell_start[c + 1];
     put(entry(c), kListCell | address);
     put(lists + address, end - begin);
-    std::memcpy(lists + address + 4, grid.cell_primitives.data() + begin, std::size_t(end - begin) * sizeof(std::uint32_t));
+    for (std::uint32_t k = begin; k < end; ++k) put(lists + address + 4 * (1 + k - begin), slot[grid.cell_primitives[k]]);
   });
   if (blocks) {
     std::byte* runs = at(l.block_first, 0);
     place_packed(l, grid, *blocks, [&](std::uint32_t c, std::uint32_t header) {
       put(entry(c), kPackedCell | header);
       put(runs + header, grid.cell_start[c + 1] - grid.cell_start[c]);  // the rest of the header stays zero
-      for (std::uint32_t k = blocks->start[c]; k < blocks->start[c + 1]; ++k)
-        std::memcpy(runs + l.packed_block_address(header, k - blocks->start[c]), &blocks->blocks[k],
-                    sizeof(core::TriangleBlock));
+      std::uint32_t left = grid.cell_start[c + 1] - grid.cell_start[c];
+      for (std::uint32_t k = blocks->start[c]; k < blocks->start[c + 1]; ++k, left -= core::kBlockLanes) {
+        core::TriangleBlock b = blocks->blocks[k];
+        for (std::uint32_t lane = 0; lane < std::min(left, core::kBlockLanes); ++lane) b.primitive[lane] = slot[b.primitive[lane]];
+        std::memcpy(runs + l.packed_block_address(header, k - blocks->start[c]), &b, sizeof b);
+      }
     });
   }
   // Sub-grid records: each grid's description and its cell 0's key.
@@ -289,11 +360,28 @@ PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, s
     const PagedSubGrid r{s.info, l.entry_key(g, s.first_entry) | (s.large_list ? kLargeListKey : 0u)};
     std::memcpy(base + l.sub_grid_address(i), &r, sizeof r);
   }
-  // Primitives, then vertex normals.
-  for (std::uint32_t id = 0; id < l.primitives; ++id)
-    std::memcpy(at(l.primitive_page(id), l.primitive_offset(id)), &db.primitives[id], sizeof(core::Primitive));
-  for (std::uint32_t id = 0; id < l.normal_sets; ++id)
-    std::memcpy(at(l.normals_page(id), l.normals_offset(id)), &db.vertex_normals[id], sizeof(core::TriangleNormals));
+  // Primitives, each at its slot; then vertex normals, in the order of
+  // their triangles' slots in cell order (the records renumbered to match).
+  std::vector<std::uint32_t> by_slot(l.primitives);
+  for (std::uint32_t id = 0; id < l.primitives; ++id) by_slot[slot[id]] = id;
+  std::vector<std::uint32_t> normal_slot(l.normal_sets, kNoSlot);
+  std::uint32_t next_normals = 0;
+  for (std::uint32_t s = 0; s < l.primitives; ++s) {
+    core::Primitive p = db.primitives[by_slot[s]];
+    if (l.primitive_order == PrimitiveOrder::kCell && p.normals != core::kNoNormals && p.normals < l.normal_sets) {
+      if (normal_slot[p.normals] == kNoSlot) normal_slot[p.normals] = next_normals++;
+      p.normals = normal_slot[p.normals];
+    }
+    std::memcpy(at(l.primitive_page(s), l.primitive_offset(s)), &p, sizeof p);
+  }
+  for (std::uint32_t id = 0; id < l.normal_sets; ++id) {
+    std::uint32_t to = id;
+    if (l.primitive_order == PrimitiveOrder::kCell) {
+      if (normal_slot[id] == kNoSlot) normal_slot[id] = next_normals++;  // a set no primitive names
+      to = normal_slot[id];
+    }
+    std::memcpy(at(l.normals_page(to), l.normals_offset(to)), &db.vertex_normals[id], sizeof(core::TriangleNormals));
+  }
   return image;
 }
 

@@ -34,9 +34,19 @@
 //              on a fresh page, a longer list continues page after page (a
 //              chain of per-page pieces, each an object in one page; the
 //              header is in the first);
-//   primitives the 64-byte Primitive records, page_size/64 per page;
+//   primitives the 64-byte Primitive records, page_size/64 per page, in
+//              file order (the database's, the paper's) or in cell order
+//              (PrimitiveOrder): slot by slot as the cells, walked in
+//              directory key order, first list them, so that the few
+//              primitives a cell lists share a page with its neighbours'
+//              instead of lying wherever the file put them. Then the
+//              directory's one-primitive entries, the lists and the
+//              packed blocks hold slots; a slot's record is the
+//              primitive's, so a hit shades, and an image comes out, the
+//              same in either order;
 //   normals    the 36-byte TriangleNormals of `pp` triangles,
-//              floor(page_size/36) per page;
+//              floor(page_size/36) per page (in cell order: in the order
+//              of their triangles' slots);
 //   blocks     only with --pack-cells N (off by default, as in the paper):
 //              each packed cell's run, a 32-byte header (its triangle
 //              count, then zeros) and its 320-byte core::TriangleBlocks
@@ -58,6 +68,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "core/cell_blocks.h"
 #include "core/cell_order.h"
@@ -105,6 +116,15 @@ const char* directory_order_name(DirectoryOrder o);
 /// std::invalid_argument naming the text otherwise.
 std::optional<DirectoryOrder> parse_directory_order(const std::string& text);
 
+/// The order of the records in the primitives segment (file comment):
+/// the database's (file) or the cells' (cell).
+enum class PrimitiveOrder : std::uint8_t { kFile, kCell };
+/// "file", "cell".
+const char* primitive_order_name(PrimitiveOrder o);
+/// "file", "cell" or "auto" (nullopt: the mode chooses); throws
+/// std::invalid_argument naming the text otherwise.
+std::optional<PrimitiveOrder> parse_primitive_order(const std::string& text);
+
 /// The segments of the shared virtual memory (in page order: directory,
 /// sub-grids, lists, primitives, normals, blocks).
 enum class Segment : std::uint8_t { kDirectory, kLists, kPrimitives, kNormals, kBlocks, kSubGrids };
@@ -151,6 +171,7 @@ struct PageLayout {
   /// page). A cell's entry is at its key (core::CellBricks::key); in the
   /// linear order the key is the cell's index.
   core::CellBricks bricks;
+  PrimitiveOrder primitive_order = PrimitiveOrder::kFile;
   std::uint32_t primitive_shift = 0;   ///< log2(primitives per page)
   std::uint32_t normals_per_page = 0;  ///< TriangleNormals per page
   std::uint32_t blocks_per_page = 0;   ///< TriangleBlocks per page (a long run's pages after its first)
@@ -214,6 +235,9 @@ struct PageLayout {
   std::uint64_t sub_grid_address(std::uint32_t i) const {
     return address(sub_grid_first) + std::uint64_t(i) * sizeof(PagedSubGrid);
   }
+  /// The page and offset of the record in primitive slot `id` (a
+  /// primitive id in file order; in cell order, the slot the directory,
+  /// lists and blocks name).
   std::uint32_t primitive_page(std::uint32_t id) const { return primitive_first + (id >> primitive_shift); }
   std::uint32_t primitive_offset(std::uint32_t id) const {
     return (id & ((1u << primitive_shift) - 1)) * std::uint32_t(sizeof(core::Primitive));
@@ -241,9 +265,10 @@ struct PageLayout {
 };
 
 /// Builds the layout for a database and grid, with the packed cells of
-/// `blocks` (built from the same db and grid) when given and the cell
+/// `blocks` (built from the same db and grid) when given, the cell
 /// directory in `order` (bricked: core::choose_cell_bricks for a page's
-/// entries; its pages are the bricks, padding included). Throws
+/// entries; its pages are the bricks, padding included) and the primitive
+/// records in `primitive_order`. Throws
 /// std::invalid_argument when page_size is not a power of two in
 /// [kMinPageSize, kMaxPageSize] or, with blocks, below a run header and a
 /// block (352 B), and std::length_error when the database needs more than
@@ -251,7 +276,8 @@ struct PageLayout {
 /// more than 2^30 ids (a directory entry's limits).
 PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, std::uint32_t page_size,
                             const core::CellBlocks* blocks = nullptr,
-                            DirectoryOrder order = DirectoryOrder::kLinear);
+                            DirectoryOrder order = DirectoryOrder::kLinear,
+                            PrimitiveOrder primitive_order = PrimitiveOrder::kFile);
 
 /// Page-aligned host memory (mmap) that can be made unreadable: the host's
 /// copy of the shared virtual memory, protected once the nodes are loaded
@@ -299,6 +325,38 @@ struct PagedImage {
 /// its empty-space distances (core::build_grid computes them).
 PagedImage build_paged_image(const core::Database& db, const core::Grid& grid, std::uint32_t page_size,
                              const core::CellBlocks* blocks = nullptr,
-                             DirectoryOrder order = DirectoryOrder::kLinear);
+                             DirectoryOrder order = DirectoryOrder::kLinear,
+                             PrimitiveOrder primitive_order = PrimitiveOrder::kFile);
+
+/// The slot of each primitive id (slot[id], a permutation of 0..n-1) in
+/// `l`'s primitive order: the identity in file order; in cell order, the
+/// order in which the cells of `grid`, walked in `l`'s directory key order,
+/// first list them, each cell's list in its order, and any primitive no
+/// cell lists after them in id order.
+std::vector<std::uint32_t> primitive_slots(const PageLayout& l, const core::Grid& grid, std::uint32_t primitives);
+
+/// Each leaf cell's weight in list_primitive_pages: half its box's surface
+/// area (world units squared), to which the chance that a ray crosses it
+/// is proportional (the surface area heuristic's argument: MacDonald and
+/// Booth, "Heuristics for ray tracing using space subdivision", 1990); a
+/// sub-grid's large-primitive leaf, tested by every ray that enters the
+/// sub-grid, gets the sub-grid's box's.
+std::vector<double> leaf_weights(const core::Grid& grid);
+
+/// Summed over the leaf cells of `grid`, each cell's weight (leaf_weights)
+/// times the distinct primitive pages its list names when primitive id i
+/// lies in slot[i] (pages of 2^shift records): up to a constant, the
+/// primitive pages a ray reads per cell it tests, on average.
+double list_primitive_pages(const core::Grid& grid, std::span<const double> weights,
+                            std::span<const std::uint32_t> slot, std::uint32_t shift);
+
+/// svm's automatic primitive order: cell order when list_primitive_pages is
+/// lower with it than with file order (with `l`'s page size and directory
+/// order), else file order. Cell order gathers a cell's primitives, but a
+/// file written in a spatial order of its own (SPD Tetra's recursion, a
+/// mesh's strips) can keep neighbouring cells' primitives together better;
+/// where the file's order is not spatial (a shuffled or exported mesh) cell
+/// order puts each list on a third as many pages.
+PrimitiveOrder fewer_list_pages(const core::Grid& grid, PageLayout l);
 
 }  // namespace raynode::svm

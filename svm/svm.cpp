@@ -139,12 +139,16 @@ std::uint32_t cache_frames_for(const PageLayout& layout, const SvmParams& params
 namespace {
 
 /// The host's paged image of `db` (with --pack-cells, the packed cells'
-/// triangle blocks paged too), its cell directory in `order`.
+/// triangle blocks paged too), its cell directory in `order`, its
+/// primitives in params.primitive_order (auto: SvmParams::primitive_order).
 PagedImage page_database(const core::Database& db, const core::Grid& grid, const SvmParams& params,
                          DirectoryOrder order) {
-  if (params.pack_min == 0) return build_paged_image(db, grid, params.page_size, nullptr, order);
-  const core::CellBlocks blocks = core::build_cell_blocks(db, grid, params.pack_min);
-  return build_paged_image(db, grid, params.page_size, &blocks, order);
+  const core::CellBlocks blocks = params.pack_min ? core::build_cell_blocks(db, grid, params.pack_min) : core::CellBlocks{};
+  const core::CellBlocks* packed = params.pack_min ? &blocks : nullptr;
+  PrimitiveOrder primitives = params.primitive_order.value_or(PrimitiveOrder::kFile);
+  if (!params.primitive_order && grid.kind() == core::GridKind::kAdaptive)
+    primitives = fewer_list_pages(grid, make_page_layout(db, grid, params.page_size, packed, order));
+  return build_paged_image(db, grid, params.page_size, packed, order, primitives);
 }
 
 /// A node's bytes besides its home pages and cache frames: mailbox, receive
@@ -371,6 +375,7 @@ nlohmann::json SvmResult::to_json() const {
   j["directory_order"] = directory_order_name(layout.directory_order);
   if (layout.directory_order == DirectoryOrder::kBricked)
     j["directory_brick"] = {layout.bricks.dims[0], layout.bricks.dims[1], layout.bricks.dims[2]};
+  j["primitive_order"] = primitive_order_name(layout.primitive_order);
   j["pack_cells"] = layout.pack_min;
   j["packed_cells"] = layout.packed_cells;
   j["packed_blocks"] = layout.blocks;

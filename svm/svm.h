@@ -48,6 +48,12 @@ struct SvmParams {
   /// directory pages a node fetches; on one node, where every page is home,
   /// the linear order's walk is cheaper).
   std::optional<DirectoryOrder> directory_order;
+  /// The primitive records' order in their pages (--primitive-order);
+  /// nullopt = auto: with the adaptive grid the order whose cell lists
+  /// name fewer pages, cells weighted by their surface (fewer_list_pages),
+  /// with the paper's uniform grid the database's (file) order, the
+  /// paper's layout.
+  std::optional<PrimitiveOrder> primitive_order;
   /// Cache frames per node (--cache N): 0 = all the room the node's memory
   /// has left after its home pages, page table, mailbox and buffers.
   std::uint32_t cache_pages = 0;

@@ -5,6 +5,7 @@
 #include <csignal>
 #include <cstring>
 #include <stdexcept>
+#include <vector>
 
 #include "svm/paged_database.h"
 #include "test_scenes.h"
@@ -349,4 +350,82 @@ TEST_CASE("paged database: an adaptive grid pages the top directory, the sub-gri
                                     std::size_t(l.cells) * 4 + std::size_t(l.sub_grids) * 64 +
                                     std::size_t(l.listed_cells + l.list_ids) * 4);
       }
+}
+
+TEST_CASE("paged database: in cell order the cells name their primitives by slot, first-listed first, and each "
+          "slot holds its primitive's record") {
+  std::uint32_t seen_normals = 0, seen_packed = 0;
+  for (auto [name, size] : {std::pair{"teapot", 2}, std::pair{"rings", 1}, std::pair{"tetra", 3}})
+    for (const DirectoryOrder order : {DirectoryOrder::kLinear, DirectoryOrder::kBricked})
+      for (std::uint32_t ps : {64u, 1024u}) {
+        CAPTURE(name);
+        CAPTURE(ps);
+        CAPTURE(directory_order_name(order));
+        const testing::BuiltScene b = testing::build_spd(name, size);
+        const core::CellBlocks blocks = core::build_cell_blocks(b.db, b.grid, 3);
+        const bool pack = ps >= 1024 && !blocks.blocks.empty();
+        const PagedImage im = build_paged_image(b.db, b.grid, ps, pack ? &blocks : nullptr, order, PrimitiveOrder::kCell);
+        const PageLayout& l = im.layout;
+        CHECK(l.primitive_order == PrimitiveOrder::kCell);
+        const std::uint32_t n = std::uint32_t(b.db.primitives.size());
+        const std::vector<std::uint32_t> slot = primitive_slots(l, b.grid, n);
+        // A permutation of the ids.
+        std::vector<bool> taken(n, false);
+        for (std::uint32_t s : slot) {
+          REQUIRE(s < n);
+          REQUIRE(!taken[s]);
+          taken[s] = true;
+        }
+        // Walked in key order, the cells meet the slots 0, 1, 2, ... the
+        // first time they list a primitive; each cell names its list's
+        // primitives by slot, in list order.
+        std::vector<std::uint32_t> key_cell(l.top_keys, 0xffffffffu);
+        for (std::uint32_t c = 0; c < l.top_cells; ++c) key_cell[l.entry_key(b.grid.info, c)] = c;
+        std::uint32_t next = 0;
+        std::vector<bool> met(n, false);
+        for (std::uint32_t c : key_cell) {
+          if (c == 0xffffffffu) continue;  // a bricked directory's padding
+          std::vector<std::uint32_t> expect;
+          for (std::uint32_t k = b.grid.cell_start[c]; k < b.grid.cell_start[c + 1]; ++k) {
+            const std::uint32_t id = b.grid.cell_primitives[k];
+            expect.push_back(slot[id]);
+            if (!met[id]) {
+              met[id] = true;
+              REQUIRE(slot[id] == next++);
+            }
+          }
+          const CellRecord r = record_of(im, b.grid.info, c);
+          if (r.packed) {
+            ++seen_packed;
+            REQUIRE(r.count == expect.size());
+            for (std::uint32_t i = 0; i < r.count; ++i) {
+              core::TriangleBlock blk;
+              const std::uint32_t a = l.packed_block_address(r.header, i / core::kBlockLanes);
+              std::memcpy(&blk, im.page(l.block_address_page(a)).data() + l.block_address_offset(a), sizeof blk);
+              REQUIRE(blk.primitive[i % core::kBlockLanes] == expect[i]);
+            }
+          } else {
+            REQUIRE(r.ids == expect);
+          }
+        }
+        // Each slot holds its primitive's record; vertex normals follow
+        // their triangles, the record naming the set's new place.
+        for (std::uint32_t id = 0; id < n; ++id) {
+          core::Primitive p;
+          std::memcpy(&p, im.page(l.primitive_page(slot[id])).data() + l.primitive_offset(slot[id]), sizeof p);
+          const core::Primitive& want = b.db.primitives[id];
+          REQUIRE(p.kind == want.kind);
+          REQUIRE(p.material == want.material);
+          REQUIRE(p.shape == want.shape);
+          REQUIRE(std::memcmp(p.data, want.data, sizeof p.data) == 0);
+          REQUIRE((p.normals == core::kNoNormals) == (want.normals == core::kNoNormals));
+          if (p.normals == core::kNoNormals) continue;
+          ++seen_normals;
+          REQUIRE(p.normals < l.normal_sets);
+          REQUIRE(std::memcmp(im.page(l.normals_page(p.normals)).data() + l.normals_offset(p.normals),
+                              &b.db.vertex_normals[want.normals], sizeof(core::TriangleNormals)) == 0);
+        }
+      }
+  CHECK(seen_normals > 0);  // teapot's patches
+  CHECK(seen_packed > 0);
 }

@@ -2,10 +2,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <csignal>
 #include <stdexcept>
 #include <string>
+#include <random>
 #include <tuple>
 #include <vector>
 
@@ -482,4 +484,102 @@ TEST_CASE("svm over an adaptive grid: paged sub-grids give the sequential image 
           }
   }
   CHECK(large_lists > 0);
+}
+
+TEST_CASE("svm: primitives in cell order give the sequential image and, on a shuffled mesh, fewer pages per pixel") {
+  // A tessellated teapot whose triangles lie in random order, as a scanned
+  // mesh's may: file order scatters a cell's triangles over many pages.
+  testing::BuiltScene b = testing::build_spd("teapot", 3);
+  std::mt19937 rng(7);
+  std::shuffle(b.db.primitives.begin(), b.db.primitives.end(), rng);
+  core::GridParams gp;
+  gp.kind = core::GridKind::kAdaptive;
+  gp.sub_grid_min = 16;  // sub-grids even on this small mesh
+  b.grid = core::build_grid(b.db, gp);
+  REQUIRE(b.grid.sub_grid_count() > 0);
+  core::RenderParams rp = small_params(1, 0).render;
+  rp.width = rp.height = 40;
+  const core::RenderResult seq = core::render(b.db, b.grid, rp);
+  PagerStats file, cell;
+  for (const std::uint32_t pack : {0u, 3u})
+    for (const PrimitiveOrder order : {PrimitiveOrder::kFile, PrimitiveOrder::kCell}) {
+      CAPTURE(pack);
+      CAPTURE(primitive_order_name(order));
+      SvmParams p = small_params(4, 0);
+      p.render = rp;
+      p.page_size = 1024;
+      p.pack_min = pack;
+      p.primitive_order = order;
+      p.machine.work_request_route = nodes::WorkRequestRoute::kOff;  // each node its own submap: repeatable faults
+      const SvmResult r = render_svm(b.db, b.grid, p);
+      CHECK(testing::same_bytes(r.render.color, seq.color));
+      CHECK(r.render.stats.rays.total() == seq.stats.rays.total());
+      CHECK(r.layout.primitive_order == order);
+      CHECK(r.to_json()["primitive_order"] == primitive_order_name(order));
+      if (pack == 0) (order == PrimitiveOrder::kFile ? file : cell) = r.pager_total();
+    }
+  // The tracer reads the same objects, from fewer primitive pages.
+  CHECK(cell.accesses == file.accesses);
+  CHECK(cell.pixel_pages * 3 < file.pixel_pages * 2);
+  CHECK(cell.segment_misses[std::size_t(Segment::kPrimitives)] < file.segment_misses[std::size_t(Segment::kPrimitives)]);
+  // auto: over the adaptive grid the order whose cell lists name fewer
+  // pages (here cell order, the file's being random); over the uniform
+  // grid file order, the paper's layout.
+  SvmParams p = small_params(2, 0);
+  p.render.width = p.render.height = 8;
+  CHECK(render_svm(b.db, b.grid, p).layout.primitive_order == PrimitiveOrder::kCell);
+  const core::Grid uniform = core::build_grid(b.db);
+  CHECK(render_svm(b.db, uniform, p).layout.primitive_order == PrimitiveOrder::kFile);
+}
+
+TEST_CASE("svm: auto primitive order takes the order whose cell lists name fewer pages by area, file order on a spatial file") {
+  core::GridParams gp;
+  gp.kind = core::GridKind::kAdaptive;
+  // Tetra's file order is its recursion's, spatial at every scale; the
+  // shuffled teapot's is random.
+  testing::BuiltScene tetra = testing::build_spd("tetra", 5);
+  tetra.grid = core::build_grid(tetra.db, gp);
+  testing::BuiltScene teapot = testing::build_spd("teapot", 3);
+  std::mt19937 rng(11);
+  std::shuffle(teapot.db.primitives.begin(), teapot.db.primitives.end(), rng);
+  teapot.grid = core::build_grid(teapot.db, gp);
+  for (const testing::BuiltScene* b : {&tetra, &teapot}) {
+    // The leaf weights: half the surface of each leaf's box; a large-
+    // primitive leaf weighs what its sub-grid's box does.
+    const std::vector<double> w = leaf_weights(b->grid);
+    REQUIRE(w.size() == b->grid.leaf_cells());
+    const auto half_area = [](const core::Vec3& e) { return double(e.x) * e.y + double(e.y) * e.z + double(e.z) * e.x; };
+    for (std::size_t i = 0; i < b->grid.sub_grids.size(); ++i) {
+      const core::SubGrid& s = b->grid.sub_grids[i];
+      for (std::uint32_t c = 0; c < s.info.cell_count(); ++c)
+        if (!(b->grid.cell_entries[s.first_entry + c] & core::kSubGridEntry))
+          CHECK(w[s.first_entry + c] == doctest::Approx(half_area(s.info.cell_size)));
+      if (s.large_list) CHECK(w[s.first_entry + s.info.cell_count()] == doctest::Approx(half_area(s.info.bounds.extent())));
+    }
+    // The two sums, worked out here from the lists and the slots.
+    PageLayout l = make_page_layout(b->db, b->grid, 1024, nullptr, DirectoryOrder::kBricked);
+    double pages[2] = {0, 0};
+    for (const PrimitiveOrder order : {PrimitiveOrder::kFile, PrimitiveOrder::kCell}) {
+      l.primitive_order = order;
+      const std::vector<std::uint32_t> slot = primitive_slots(l, b->grid, l.primitives);
+      for (std::uint32_t c = 0; c < b->grid.leaf_cells(); ++c) {
+        std::vector<bool> seen(l.primitive_pages, false);
+        for (std::uint32_t k = b->grid.cell_start[c]; k < b->grid.cell_start[c + 1]; ++k) {
+          const std::uint32_t page = slot[b->grid.cell_primitives[k]] / 16;  // 16 records a page
+          if (!seen[page]) pages[std::size_t(order)] += w[c];
+          seen[page] = true;
+        }
+      }
+      CHECK(list_primitive_pages(b->grid, w, slot, l.primitive_shift) == doctest::Approx(pages[std::size_t(order)]));
+    }
+    const PrimitiveOrder fewer = pages[1] < pages[0] ? PrimitiveOrder::kCell : PrimitiveOrder::kFile;
+    CHECK(fewer_list_pages(b->grid, l) == fewer);
+    SvmParams p = small_params(4, 0);
+    p.render.width = p.render.height = 8;
+    CHECK(render_svm(b->db, b->grid, p).layout.primitive_order == fewer);
+  }
+  CHECK(fewer_list_pages(tetra.grid, make_page_layout(tetra.db, tetra.grid, 1024, nullptr, DirectoryOrder::kBricked)) ==
+        PrimitiveOrder::kFile);
+  CHECK(fewer_list_pages(teapot.grid, make_page_layout(teapot.db, teapot.grid, 1024, nullptr, DirectoryOrder::kBricked)) ==
+        PrimitiveOrder::kCell);
 }
