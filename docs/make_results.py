@@ -419,6 +419,7 @@ def section_mpi(src):
 
     quiet = rows_of("mpi-validation-512-run2.csv")
     loaded = rows_of("mpi-validation-512-run1.csv")
+    epyc = rows_of("mpi-validation-512-epyc.csv")
 
     def body(rows):
         return [[r["scene"], r["mode"], r["clock"], f"{float(r['t1_wall_s']):.3f} / {float(r['tp_wall_s']):.3f}",
@@ -454,6 +455,17 @@ def section_mpi(src):
         "The same on a loaded machine: " + src.describe("mpi-validation-512-run1.csv"),
         "",
         table(header, body(loaded)),
+        "",
+        "The same on another 2-core machine: " + src.describe("mpi-validation-512-epyc.csv"),
+        "",
+        table(header, body(epyc)),
+        "",
+        "- Here the measured speedups run from "
+        f"{min(float(r['speedup_measured']) for r in epyc):.2f} to {max(float(r['speedup_measured']) for r in epyc):.2f}; "
+        "the model clock predicts the efficiency within "
+        f"{max(abs(float(r['error_points'])) for r in epyc if r['clock'] == 'model'):.1f} points, the CPU clock "
+        f"within {max(abs(float(r['error_points'])) for r in epyc if r['clock'] == 'cpu'):.1f}, predicting "
+        "less than was measured on this machine where it predicted more on the other.",
         "",
         "Home pages by request and reply or by one-sided `MPI_Get`, svm Teapot at 512x512: "
         + src.describe("mpi-page-fetch-teapot8-512.csv")
