@@ -22,9 +22,19 @@ namespace {
 
 bool g_started = false;
 
-/// Every raynode message travels as one MPI message of this tag: the
-/// destination participant, the header, then the payload.
+/// raynode messages travel in MPI messages of this tag, each a batch of
+/// one or more records: the record's bytes (a uint32), the destination
+/// participant, the header, then the payload.
 constexpr int kMessageTag = 7;
+/// Rays and pixel contributions (dataflow's stream) wait in their
+/// destination rank's batch until it holds this many bytes, another kind of
+/// message is sent, a node of this rank waits for mail, or the receiving
+/// thread passes by (at least every millisecond): one MPI message per
+/// batch instead of one per ray. Any other message leaves at once, after
+/// the batches before it.
+constexpr std::size_t kBatchBytes = 8 * 1024;
+
+bool batched(nodes::MessageType t) { return t == nodes::MessageType::kRay || t == nodes::MessageType::kContribution; }
 constexpr int kPingTag = 8;
 
 void check(int rc, const char* what) {
@@ -109,6 +119,33 @@ struct MpiTransport::State {
   std::mutex send_mutex;
   std::vector<MPI_Request> requests;
   std::vector<std::vector<std::byte>> buffers;
+  /// Per destination rank, the records waiting to leave as one message
+  /// (send_mutex held); `pending`: some batch is not empty.
+  std::vector<std::vector<std::byte>> batch;
+  std::atomic<bool> pending{false};
+
+  /// Sends rank `to`'s batch, if any, as one MPI message (send_mutex held).
+  void flush(int to) {
+    std::vector<std::byte>& b = batch[std::size_t(to)];
+    if (b.empty()) return;
+    MPI_Request req;
+    check(MPI_Isend(b.data(), int(b.size()), MPI_BYTE, to, kMessageTag, comm, &req), "MPI_Isend");
+    requests.push_back(req);
+    buffers.push_back(std::move(b));
+    b = {};
+    ++sent[std::size_t(to)];
+    if (requests.size() >= 32) reap();
+  }
+  /// Sends every batch (send_mutex held).
+  void flush_all() {
+    for (int r = 0; r < size; ++r) flush(r);
+    pending.store(false, std::memory_order_relaxed);
+  }
+  void flush_all_locked() {
+    if (!pending.load(std::memory_order_relaxed)) return;
+    std::lock_guard<std::mutex> lock(send_mutex);
+    flush_all();
+  }
 
   /// Drops the completed sends (send_mutex held).
   void reap() {
@@ -152,13 +189,17 @@ struct MpiTransport::State {
     MPI_Get_count(&status, MPI_BYTE, &count);
     buf.resize(std::size_t(count));
     MPI_Mrecv(buf.data(), count, MPI_BYTE, &msg, MPI_STATUS_IGNORE);
+    // The batch's records, in the order they were sent.
     nodes::NodeId dest = 0;
     nodes::MessageHeader header;
-    const std::size_t head = sizeof(dest) + sizeof(header);
-    if (buf.size() >= head) {
-      std::memcpy(&dest, buf.data(), sizeof(dest));
-      std::memcpy(&header, buf.data() + sizeof(dest), sizeof(header));
-      deliver(dest, header, std::span<const std::byte>(buf.data() + head, buf.size() - head));
+    std::uint32_t record = 0;
+    const std::size_t head = sizeof(record) + sizeof(dest) + sizeof(header);
+    for (std::size_t at = 0; at + head <= buf.size(); at += record) {
+      std::memcpy(&record, buf.data() + at, sizeof(record));
+      if (record < head || record > buf.size() - at) break;  // cannot happen: written by send()
+      std::memcpy(&dest, buf.data() + at + sizeof(record), sizeof(dest));
+      std::memcpy(&header, buf.data() + at + sizeof(record) + sizeof(dest), sizeof(header));
+      deliver(dest, header, std::span<const std::byte>(buf.data() + at + head, record - head));
     }
     received.fetch_add(1, std::memory_order_release);
     return true;
@@ -174,6 +215,7 @@ struct MpiTransport::State {
     std::vector<std::byte> buf;
     int idle = 0;
     while (!stopping.load(std::memory_order_acquire)) {
+      flush_all_locked();  // rays that waited for a fuller batch leave now
       if (!receive_one(buf, true)) {
         // A node waits (a page, a work grant, rays): its core is free, so
         // look again at once. Else nap, up to 1 ms: a thread that wakes on
@@ -204,6 +246,7 @@ MpiTransport::MpiTransport() : s_(std::make_unique<State>()) {
   MPI_Comm_rank(s_->comm, &s_->rank);
   MPI_Comm_size(s_->comm, &s_->size);
   s_->sent.assign(std::size_t(s_->size), 0);
+  s_->batch.resize(std::size_t(s_->size));
 }
 
 MpiTransport::~MpiTransport() {
@@ -236,10 +279,16 @@ void MpiTransport::start(Deliver deliver) {
 void MpiTransport::send(nodes::NodeId dest, const nodes::MessageHeader& header,
                         std::span<const std::span<const std::byte>> parts, std::uint32_t nodes) {
   const std::uint32_t to = process_of(dest, nodes);
-  std::size_t bytes = sizeof(dest) + sizeof(header);
+  std::size_t bytes = sizeof(std::uint32_t) + sizeof(dest) + sizeof(header);
   for (const auto& p : parts) bytes += p.size();
-  std::vector<std::byte> buf(bytes);
-  std::byte* at = buf.data();
+  const std::uint32_t record = std::uint32_t(bytes);
+  std::lock_guard<std::mutex> lock(s_->send_mutex);
+  std::vector<std::byte>& b = s_->batch[to];
+  const std::size_t start = b.size();
+  b.resize(start + bytes);
+  std::byte* at = b.data() + start;
+  std::memcpy(at, &record, sizeof(record));
+  at += sizeof(record);
   std::memcpy(at, &dest, sizeof(dest));
   at += sizeof(dest);
   std::memcpy(at, &header, sizeof(header));
@@ -248,18 +297,15 @@ void MpiTransport::send(nodes::NodeId dest, const nodes::MessageHeader& header,
     if (!p.empty()) std::memcpy(at, p.data(), p.size());
     at += p.size();
   }
-  std::lock_guard<std::mutex> lock(s_->send_mutex);
-  MPI_Request req;
-  check(MPI_Isend(buf.data(), int(bytes), MPI_BYTE, int(to), kMessageTag, s_->comm, &req), "MPI_Isend");
-  s_->requests.push_back(req);
-  s_->buffers.push_back(std::move(buf));
-  ++s_->sent[to];
-  if (s_->requests.size() >= 32) s_->reap();
+  if (!batched(header.type)) s_->flush_all();  // the batches before it, then this message
+  else if (b.size() >= kBatchBytes) s_->flush(int(to));
+  else s_->pending.store(true, std::memory_order_relaxed);
 }
 
 void MpiTransport::finish() {
   {
     std::lock_guard<std::mutex> lock(s_->send_mutex);
+    s_->flush_all();
     check(MPI_Waitall(int(s_->requests.size()), s_->requests.data(), MPI_STATUSES_IGNORE), "MPI_Waitall");
     s_->requests.clear();
     s_->buffers.clear();
@@ -288,6 +334,15 @@ bool MpiTransport::poll() {
 }
 
 void MpiTransport::note_waiting(int delta) noexcept {
+  if (delta > 0) {
+    // A node that waits for mail may wait for an answer to what this
+    // rank's batches hold: they leave now.
+    try {
+      s_->flush_all_locked();
+    } catch (...) {
+      // a failed send: the run fails at its next send or at finish()
+    }
+  }
   if (s_->waiting.fetch_add(delta, std::memory_order_relaxed) == 0 && delta > 0) {
     std::lock_guard<std::mutex> lock(s_->nap_mutex);  // the napping thread checks `waiting` under it
     s_->nap.notify_one();

@@ -5,8 +5,10 @@
 // N` opens an MpiSession, builds one MpiTransport over MPI_COMM_WORLD and
 // puts it in MachineParams::transport; the machine then runs node r on rank
 // r and the host on rank 0, and every message between ranks goes through
-// MpiTransport::send (a non-blocking MPI_Isend of the header and payload)
-// and its receiving thread (MPI_Improbe / MPI_Mrecv, then the receiver's
+// MpiTransport::send (a record in its destination rank's batch, each batch
+// one non-blocking MPI_Isend; rays and pixel contributions wait for a
+// fuller batch, every other message leaves at once) and its receiving
+// thread (MPI_Improbe / MPI_Mrecv, then each record to its receiver's
 // mailbox). Requires MPI_THREAD_MULTIPLE (Open MPI provides it).
 #pragma once
 
