@@ -26,6 +26,7 @@ bool g_started = false;
 /// one or more records: the record's bytes (a uint32), the destination
 /// participant, the header, then the payload.
 constexpr int kMessageTag = 7;
+constexpr int kPingTag = 8;
 /// Rays and pixel contributions (dataflow's stream) wait in their
 /// destination rank's batch until it holds this many bytes, another kind of
 /// message is sent, a node of this rank waits for mail, or the receiving
@@ -35,7 +36,6 @@ constexpr int kMessageTag = 7;
 constexpr std::size_t kBatchBytes = 8 * 1024;
 
 bool batched(nodes::MessageType t) { return t == nodes::MessageType::kRay || t == nodes::MessageType::kContribution; }
-constexpr int kPingTag = 8;
 
 void check(int rc, const char* what) {
   if (rc == MPI_SUCCESS) return;
@@ -113,7 +113,7 @@ struct MpiTransport::State {
   std::mutex nap_mutex;         ///< the receiving thread's nap, ended early by a node that waits
   std::condition_variable nap;
   MPI_Win window = MPI_WIN_NULL;  ///< expose(): this rank's region, for the others' MPI_Get
-  /// Messages this process sent to each rank during the run.
+  /// MPI messages (batches) this process sent to each rank during the run.
   std::vector<std::uint64_t> sent;
   /// Sends in flight: their requests and buffers (index-aligned).
   std::mutex send_mutex;
@@ -125,6 +125,7 @@ struct MpiTransport::State {
   std::atomic<bool> pending{false};
 
   /// Sends rank `to`'s batch, if any, as one MPI message (send_mutex held).
+  /// Throws as check() does; the batch then stays, for the next flush.
   void flush(int to) {
     std::vector<std::byte>& b = batch[std::size_t(to)];
     if (b.empty()) return;
@@ -215,7 +216,12 @@ struct MpiTransport::State {
     std::vector<std::byte> buf;
     int idle = 0;
     while (!stopping.load(std::memory_order_acquire)) {
-      flush_all_locked();  // rays that waited for a fuller batch leave now
+      try {
+        flush_all_locked();  // rays that waited for a fuller batch leave now
+      } catch (...) {
+        // The batch stays: the next send or finish() on a participant's
+        // thread sends it again and reports the failure there.
+      }
       if (!receive_one(buf, true)) {
         // A node waits (a page, a work grant, rays): its core is free, so
         // look again at once. Else nap, up to 1 ms: a thread that wakes on
@@ -340,7 +346,7 @@ void MpiTransport::note_waiting(int delta) noexcept {
     try {
       s_->flush_all_locked();
     } catch (...) {
-      // a failed send: the run fails at its next send or at finish()
+      // The batch stays: the next send or finish() reports the failure.
     }
   }
   if (s_->waiting.fetch_add(delta, std::memory_order_relaxed) == 0 && delta > 0) {
