@@ -487,14 +487,9 @@ def section_mpi(src):
 
 def section_mpi_batches(src):
     name = "mpi-batch-dataflow-2ranks.csv"
-    rows = read_csv(os.path.join(RESULTS, name))
-    body = []
-    for scene in dict.fromkeys(r["scene"] for r in rows):
-        runs = {b: {r["round"]: float(r["wall_s"]) for r in rows if r["scene"] == scene and r["build"] == b}
-                for b in ("old", "new")}
-        paired = median([runs["new"][k] / runs["old"][k] for k in runs["old"] if k in runs["new"]])
-        body.append([scene, f"{median(runs['old'].values()):.3f}", f"{median(runs['new'].values()):.3f}",
-                     f"{paired:.2f}"])
+    wall = lambda r: float(r["wall_s"])
+    body = [[scene, f"{median(map(wall, old.values())):.3f}", f"{median(map(wall, new.values())):.3f}",
+             f"{paired_median(new, old, wall):.2f}"] for scene, old, new in ab_rounds(name)]
     return "\n".join([
         "Rays and pixel contributions batched per destination rank: on ranks, dataflow's stream of small messages "
         "(Teapot at 512x512 on 2 ranks: about 150,000 rays and 60,000 contributions) waits in its destination "

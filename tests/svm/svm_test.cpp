@@ -33,6 +33,15 @@ SvmParams small_params(std::uint32_t nodes, std::uint32_t cache) {
   return p;
 }
 
+/// A tessellated teapot whose triangles lie in random order (`seed`), as an
+/// exported mesh's may; its grid is left for the caller to build.
+testing::BuiltScene shuffled_teapot(unsigned seed) {
+  testing::BuiltScene b = testing::build_spd("teapot", 3);
+  std::mt19937 rng(seed);
+  std::shuffle(b.db.primitives.begin(), b.db.primitives.end(), rng);
+  return b;
+}
+
 }  // namespace
 
 TEST_CASE("svm: images are bit-identical to sequential for N in {1,2,3,4,7,16,64} and caches of 1, 3 and all pages") {
@@ -487,11 +496,8 @@ TEST_CASE("svm over an adaptive grid: paged sub-grids give the sequential image 
 }
 
 TEST_CASE("svm: primitives in cell order give the sequential image and, on a shuffled mesh, fewer pages per pixel") {
-  // A tessellated teapot whose triangles lie in random order, as a scanned
-  // mesh's may: file order scatters a cell's triangles over many pages.
-  testing::BuiltScene b = testing::build_spd("teapot", 3);
-  std::mt19937 rng(7);
-  std::shuffle(b.db.primitives.begin(), b.db.primitives.end(), rng);
+  // File order scatters a cell's triangles over many pages.
+  testing::BuiltScene b = shuffled_teapot(7);
   core::GridParams gp;
   gp.kind = core::GridKind::kAdaptive;
   gp.sub_grid_min = 16;  // sub-grids even on this small mesh
@@ -539,9 +545,7 @@ TEST_CASE("svm: auto primitive order takes the order whose cell lists name fewer
   // shuffled teapot's is random.
   testing::BuiltScene tetra = testing::build_spd("tetra", 5);
   tetra.grid = core::build_grid(tetra.db, gp);
-  testing::BuiltScene teapot = testing::build_spd("teapot", 3);
-  std::mt19937 rng(11);
-  std::shuffle(teapot.db.primitives.begin(), teapot.db.primitives.end(), rng);
+  testing::BuiltScene teapot = shuffled_teapot(11);
   teapot.grid = core::build_grid(teapot.db, gp);
   for (const testing::BuiltScene* b : {&tetra, &teapot}) {
     // The leaf weights: half the surface of each leaf's box; a large-
