@@ -99,7 +99,7 @@ void run_bench(const BenchOptions& o) {
     const core::Scene scene = core::load_scene(source);
     const core::Database db = core::make_database(scene);
     core::GridParams gp;
-    gp.density = o.density;
+    set_grid_density(gp, o.density);
     gp.skip_empty = o.skip_empty;
     gp.kind = grid_kind_for(o.grid);
     core::Grid grid;
@@ -199,7 +199,7 @@ void register_bench_command(CLI::App& app) {
                                  "ratio) [default: 512]")
                         ->check(CLI::Range(1, 8192));
   c->add_option("--repeat", o->repeat, "Runs per accelerator; the best is kept")->check(CLI::Range(1, 100));
-  c->add_option("--grid-density", o->density, "Grid cells per primitive")->check(finite_range(0.01, 1000));
+  add_grid_density_option(*c, o->density);
   add_grid_option(*c, o->grid);
   add_skip_empty_option(*c, o->skip_empty);
   add_pack_cells_option(*c, o->pack_min);

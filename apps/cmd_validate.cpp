@@ -52,7 +52,7 @@ void run_validate(const ValidateOptions& o) {
   if (db.primitives.empty())  // nothing to compare: say so instead of "zero mismatches"
     throw std::runtime_error(fmt::format("{}: the scene has no primitives to validate", o.source.spec));
   core::GridParams gp;
-  gp.density = o.density;
+  set_grid_density(gp, o.density);
   gp.skip_empty = o.skip_empty;
   gp.kind = grid_kind_for(o.grid);
   const core::Grid grid = core::build_grid(db, gp);
@@ -148,8 +148,7 @@ void register_validate_command(CLI::App& app) {
   c->add_option("--seed", o->params.seed, "Random seed");
   c->add_option("--t-tolerance", o->params.t_rel, "Relative tolerance on the hit distance")
       ->check(finite_range(0, 1));
-  c->add_option("--grid-density", o->density, "Grid cells per primitive (resolution heuristic)")
-      ->check(finite_range(0.01, 1000));
+  add_grid_density_option(*c, o->density);
   add_grid_option(*c, o->grid);
   add_skip_empty_option(*c, o->skip_empty);
   add_pack_cells_option(*c, o->params.pack_min);

@@ -48,6 +48,15 @@ void add_camera_options(CLI::App& cmd, core::ViewOverride& view);
 /// `skip_empty` must outlive the parse.
 void add_skip_empty_option(CLI::App& cmd, bool& skip_empty);
 
+/// Adds --grid-density LAMBDA (cells per primitive, in [0.01, 1000]) to a
+/// subcommand; `density` must outlive the parse. See set_grid_density.
+void add_grid_density_option(CLI::App& cmd, float& density);
+/// Applies --grid-density to a grid build: the uniform grid's cells per
+/// primitive, and the adaptive grid's at every level (its top grid's
+/// lambda_top and each sub-grid's lambda; core/grid.h), so that the option
+/// changes the grid of every scene, not only of those with sub-grids.
+void set_grid_density(core::GridParams& params, float density);
+
 /// --grid as given on the command line (unset: the command's default).
 struct GridChoice {
   std::optional<core::GridKind> given;  ///< the value of --grid, if given

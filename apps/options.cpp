@@ -108,6 +108,18 @@ void add_skip_empty_option(CLI::App& cmd, bool& skip_empty) {
       ->check(CLI::IsMember({"on", "off"}));
 }
 
+void add_grid_density_option(CLI::App& cmd, float& density) {
+  cmd.add_option("--grid-density", density,
+                 "Grid cells per primitive: the uniform grid's, and the adaptive grid's at every level (its top grid "
+                 "and each sub-grid)")
+      ->check(finite_range(0.01, 1000));
+}
+
+void set_grid_density(core::GridParams& params, float density) {
+  params.density = density;
+  params.top_density = density;
+}
+
 void add_grid_option(CLI::App& cmd, GridChoice& choice) {
   cmd.add_option_function<std::string>(
          "--grid",
