@@ -423,13 +423,17 @@ NodeCounters RunReport::total() const {
 
 namespace {
 
-nlohmann::json counters_json(const NodeCounters& c) {
+// `every_type`: sent and received list every message type, zeros included
+// (the run's totals: the same keys whatever the timing granted); else only
+// the types with a message (the host and each node).
+nlohmann::json counters_json(const NodeCounters& c, bool every_type) {
   nlohmann::json j;
   nlohmann::json sent = nlohmann::json::object(), received = nlohmann::json::object();
   for (std::size_t i = 0; i < kMessageTypeCount; ++i) {
     const char* name = message_type_name(MessageType(i));
-    if (c.sent[i].messages) sent[name] = {{"messages", c.sent[i].messages}, {"bytes", c.sent[i].bytes}};
-    if (c.received[i].messages)
+    if (every_type || c.sent[i].messages)
+      sent[name] = {{"messages", c.sent[i].messages}, {"bytes", c.sent[i].bytes}};
+    if (every_type || c.received[i].messages)
       received[name] = {{"messages", c.received[i].messages}, {"bytes", c.received[i].bytes}};
   }
   const MessageCounts ts = c.total_sent();
@@ -474,12 +478,12 @@ nlohmann::json RunReport::to_json(bool per_node) const {
   for (const NodeReport& r : nodes) peak = std::max(peak, r.memory_peak);
   j["memory_peak_bytes"] = peak;
   j["memory_budget_bytes"] = nodes.empty() ? 0 : nodes.front().memory_budget;
-  j["total"] = counters_json(total());
-  j["host"] = counters_json(host.counters);
+  j["total"] = counters_json(total(), true);
+  j["host"] = counters_json(host.counters, false);
   if (per_node) {
     nlohmann::json arr = nlohmann::json::array();
     for (const NodeReport& r : nodes) {
-      nlohmann::json e = counters_json(r.counters);
+      nlohmann::json e = counters_json(r.counters, false);
       e["id"] = r.id;
       e["clock_s"] = r.clock_s;
       e["work_done_s"] = r.work_done_s;

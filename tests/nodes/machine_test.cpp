@@ -6,6 +6,8 @@
 #include <thread>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "nodes/machine.h"
 
 using namespace raynode::nodes;
@@ -58,6 +60,42 @@ TEST_CASE("machine: 256 nodes pass a token round the ring 3 times and all termin
   CHECK(total.received[std::size_t(MessageType::kShutdown)].messages == 256);
   CHECK(total.sent[std::size_t(MessageType::kToken)].bytes == (3 * 256 + 1) * sizeof(Token));
   for (const NodeReport& n : r.nodes) CHECK(n.counters.received[std::size_t(MessageType::kToken)].messages == 3);
+}
+
+TEST_CASE("machine: the JSON totals list every message type, zeros included, the host and nodes only those they used") {
+  MachineParams p;
+  p.nodes = 4;
+  p.timeout_s = 60;
+  Machine machine(p);
+  Token result{};
+  const RunReport r = machine.run([](NodeContext& ctx) { token_ring_node(ctx, 1); },
+                                  [&](NodeContext& host) { shutdown_after_token(host, result); });
+  const nlohmann::json j = r.to_json(true);
+  const NodeCounters counts = r.total();
+  for (const std::string side : {"sent", "received"}) {
+    CAPTURE(side);
+    const nlohmann::json& total = j["total"][side];
+    CHECK(total.size() == kMessageTypeCount);
+    for (std::size_t i = 0; i < kMessageTypeCount; ++i) {
+      const std::string name = message_type_name(MessageType(i));
+      CAPTURE(name);
+      REQUIRE(total.contains(name));
+      const MessageCounts& c = side == "sent" ? counts.sent[i] : counts.received[i];
+      CHECK(total[name]["messages"] == c.messages);
+      CHECK(total[name]["bytes"] == c.bytes);
+    }
+    CHECK(total["page_request"]["messages"] == 0);  // a token ring asks for no page
+  }
+  CHECK(j["total"]["sent"]["token"]["messages"] == 5);      // 4 round the ring, 1 to the host
+  CHECK(j["total"]["received"]["token"]["messages"] == 4);  // the host's is not a node's
+  // The host sent only shutdowns, and received only the token.
+  CHECK(j["host"]["sent"].size() == 1);
+  CHECK(j["host"]["sent"]["shutdown"]["messages"] == 4);
+  CHECK(j["host"]["received"].size() == 1);
+  for (const nlohmann::json& n : j["per_node"]) {
+    CHECK_FALSE(n["sent"].contains("page_request"));
+    CHECK(n["received"]["shutdown"]["messages"] == 1);
+  }
 }
 
 TEST_CASE("machine: an exception in one node stops the run and reaches the caller with the node id") {
