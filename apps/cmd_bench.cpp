@@ -58,7 +58,7 @@ RaySet make_rays(const core::Database& db, const core::Grid& grid, int w, int h)
       if (!core::intersect_closest(dv, r, hit, scratch)) continue;
       const core::Primitive& prim = db.primitives[hit.primitive];
       const core::HitPoint hp = core::hit_point(prim, r, hit);  // spawned as the tracer spawns them
-      core::Vec3 n = core::geometric_normal(prim, hp.p);
+      core::Vec3 n = hp.normal;
       if (core::dot(n, r.direction) > 0) n = -n;
       const core::Vec3 o = core::offset_ray_origin(hp, n);
       for (const core::Light& l : db.lights) {

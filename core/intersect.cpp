@@ -2,16 +2,11 @@
 
 namespace raynode::core {
 
-namespace {
-
-/// a / |a| computed in double, rounded to float; (0,0,0) for a zero vector.
 Vec3 unit_from_double(const double a[3]) {
   const double len = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
   if (!(len > 0.0) || !std::isfinite(len)) return {0, 0, 0};
   return {float(a[0] / len), float(a[1] / len), float(a[2] / len)};
 }
-
-}  // namespace
 
 Vec3 geometric_normal(const Primitive& p, const Vec3& x) {
   switch (p.kind) {

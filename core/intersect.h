@@ -464,6 +464,10 @@ inline bool intersect_cone(const Ray& ray, const Vec3& base, float rb_in, const 
   return false;
 }
 
+/// a / |a| computed in double, rounded to float; (0,0,0) for a zero,
+/// infinite or NaN vector.
+Vec3 unit_from_double(const double a[3]);
+
 /// Unit geometric normal (not face-forwarded) of primitive `p` at world
 /// point `hit_point`, computed in double so that no squared length
 /// overflows or underflows (triangles with edges of 1e10 and more, or of

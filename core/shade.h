@@ -194,7 +194,7 @@ SurfaceFrame surface_frame(const View& view, const Primitive& prim, const Ray& r
   const HitPoint hp = hit_point(prim, ray, hit);
   f.p = hp.p;
   // Geometric normal: raw (for entering/exiting) and face-forwarded.
-  Vec3 ng = geometric_normal(prim, f.p);
+  Vec3 ng = hp.normal;
   if (!(dot(ng, ng) > 0.0f)) ng = -f.d;
   f.front = dot(ng, f.d) < 0.0f;
   f.nf = f.front ? ng : -ng;

@@ -44,17 +44,23 @@ inline float next_float_down(float v) { return -next_float_up(-v); }
 
 /// A point on a surface and the absolute error bound of each of its
 /// coordinates, in world units: the exact surface point the hit stands for
-/// lies within [p - error, p + error].
+/// lies within [p - error, p + error]; and the surface's unit geometric
+/// normal there, unflipped (geometric_normal's orientation), zero where it
+/// is undefined. hit_point takes a sphere's or cone's normal from the point
+/// in double before its rounding to `p`: far from the origin, p's rounding
+/// (a float spacing of its coordinates) is a sizeable part of a small
+/// radius, and a normal from p would tilt by it.
 struct HitPoint {
   Vec3 p;
   Vec3 error;
+  Vec3 normal;
 };
 
 /// The point where `ray` crosses the plane of the triangle `prim`, o + t d
 /// with t from triangle_plane_t, computed in double and rounded once, and
 /// its error bound: that rounding plus |d| times t's bound.
 inline HitPoint ray_hit_point(const Primitive& prim, const Ray& ray) {
-  HitPoint h;
+  HitPoint h;  // its normal is left to the caller (a triangle's is the plane's)
   double t = 0, err = 0;
   if (!triangle_plane_t(ray, prim.vertex(0), prim.vertex(1), prim.vertex(2), t, err)) {
     h.error = {kInfinity, kInfinity, kInfinity};
@@ -87,11 +93,15 @@ inline HitPoint hit_point(const Primitive& prim, const Ray& ray, const Hit& hit)
       const Vec3 a = prim.vertex(0) * b0, b = prim.vertex(1) * b1, c = prim.vertex(2) * b2;
       h.p = a + b + c;
       h.error = (abs(a) + abs(b) + abs(c)) * gamma_bound(7);
+      h.normal = geometric_normal(prim, h.p);  // the plane's, wherever the point
       // On a triangle far larger than the distance to the hit (a 1e8 ground
       // seen from 1e-2 away) the barycentric point errs by the vertices'
       // float spacing; the ray's point o + t d is then the better one.
-      const HitPoint r = ray_hit_point(prim, ray);
-      if (r.error.x + r.error.y + r.error.z < h.error.x + h.error.y + h.error.z) return r;
+      HitPoint r = ray_hit_point(prim, ray);
+      if (r.error.x + r.error.y + r.error.z < h.error.x + h.error.y + h.error.z) {
+        r.normal = h.normal;
+        return r;
+      }
       return h;
     }
     case PrimitiveKind::kSphere: {
@@ -107,6 +117,7 @@ inline HitPoint hit_point(const Primitive& prim, const Ray& ray, const Hit& hit)
         mag = std::max(mag, std::fabs(c[i]));
       }
       h.error = abs(h.p) * gamma_bound(2) + Vec3{1.0f, 1.0f, 1.0f} * float(mag * 0x1p-40);
+      h.normal = len > 0.0 ? unit_from_double(q) : geometric_normal(prim, h.p);
       return h;
     }
     case PrimitiveKind::kCone: {
@@ -117,26 +128,37 @@ inline HitPoint hit_point(const Primitive& prim, const Ray& ray, const Hit& hit)
       double q[3];
       for (int i = 0; i < 3; ++i) q[i] = double(ray.origin[i]) + double(hit.t) * ray.direction[i] - b[i];
       double mag = std::max(hgt, std::max(ra, rb));
+      bool has_normal = false;
       if (hgt > 0.0) {
         for (double& x : w) x /= hgt;
         const double s = q[0] * w[0] + q[1] * w[1] + q[2] * w[2];  // axial position
         double perp[3];
         for (int i = 0; i < 3; ++i) perp[i] = q[i] - s * w[i];
         const double len = std::sqrt(perp[0] * perp[0] + perp[1] * perp[1] + perp[2] * perp[2]);
-        const double radius = rb + (ra - rb) / hgt * s;  // the surface's radius there
-        if (len > 0.0 && radius >= 0.0)
+        const double k = (ra - rb) / hgt;
+        const double radius = rb + k * s;  // the surface's radius there
+        if (len > 0.0 && radius >= 0.0) {
           for (int i = 0; i < 3; ++i) q[i] = s * w[i] + perp[i] * (radius / len);
+          // geometric_normal's gradient at the reprojected point: its
+          // perpendicular part (radius long) minus the axis times radius * k.
+          double n[3];
+          for (int i = 0; i < 3; ++i) n[i] = perp[i] * (radius / len) - w[i] * (radius * k);
+          h.normal = unit_from_double(n);
+          has_normal = true;
+        }
       }
       for (int i = 0; i < 3; ++i) {
         h.p[i] = float(b[i] + q[i]);
         mag = std::max(mag, std::fabs(b[i]));
       }
       h.error = abs(h.p) * gamma_bound(2) + Vec3{1.0f, 1.0f, 1.0f} * float(mag * 0x1p-40);
+      if (!has_normal) h.normal = geometric_normal(prim, h.p);
       return h;
     }
   }
   h.p = ray.at(hit.t);
   h.error = abs(h.p) * gamma_bound(4);
+  h.normal = geometric_normal(prim, h.p);
   return h;
 }
 

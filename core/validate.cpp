@@ -313,7 +313,7 @@ ValidateReport validate_grid(const Database& db, const Grid& grid, const EmbreeS
   for (const Origin& o : hits) {
     const Primitive& p = db.primitives[o.hit.primitive];
     const HitPoint hp = hit_point(p, o.ray, o.hit);
-    const Vec3 n = geometric_normal(p, hp.p);
+    const Vec3 n = hp.normal;
     if (!(dot(n, n) > 0.0f)) continue;
     const Vec3 d = normalize_any(o.ray.direction);
     // Mirror reflection, leaving on the side the ray came from.

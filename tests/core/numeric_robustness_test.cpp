@@ -163,6 +163,68 @@ TEST_CASE("cone: the same ray hits a cylinder and a cone alike at scales 1e-6 ..
                        kInfinity, t));
 }
 
+TEST_CASE("normals: a small sphere and cone far from the origin get the normal of the exact point, not of its rounding") {
+  // At 1e4 a float's spacing is 1e-3, 2% of these radii: a normal taken
+  // from the rounded hit point would tilt by up to about that much.
+  const double far = 1e4, r = 0.05;
+  const Vec3 c{float(far + 0.3), float(far - 0.2), float(far + 0.1)};
+  Primitive sphere;
+  sphere.kind = PrimitiveKind::kSphere;
+  for (int k = 0; k < 3; ++k) sphere.data[k] = c[k];
+  sphere.data[3] = float(r);
+  // A cone along z (base radius r, apex radius r / 2) beside it.
+  Primitive cone;
+  cone.kind = PrimitiveKind::kCone;
+  const Vec3 base{c.x + 1, c.y, c.z - 0.2f}, apex{c.x + 1, c.y, c.z + 0.2f};
+  for (int k = 0; k < 3; ++k) {
+    cone.data[k] = base[k];
+    cone.data[4 + k] = apex[k];
+  }
+  cone.data[3] = float(r);
+  cone.data[7] = float(r / 2);
+  double worst_sphere = 0, worst_cone = 0, worst_rounded = 0;
+  for (int i = 0; i < 200; ++i) {
+    const double a = 0.1 + i * 0.031, b = -0.6 + i * 0.006;
+    const Vec3 dir{float(std::cos(a) * std::cos(b)), float(std::sin(a) * std::cos(b)), float(std::sin(b))};
+    for (const Primitive* p : {&sphere, &cone}) {
+      const Vec3 target = p == &sphere ? c : Vec3{base.x, base.y, c.z};
+      const Ray ray{target - dir * 3.0f, dir, 0.0f, kInfinity};
+      float t = 0;
+      const bool hit_it = p == &sphere ? intersect_sphere(ray, p->center(), p->radius(), kInfinity, t)
+                                       : intersect_cone(ray, p->cone_base(), p->cone_base_radius(), p->cone_apex(),
+                                                        p->cone_apex_radius(), kInfinity, t);
+      if (!hit_it) continue;
+      Hit hit;
+      hit.t = t;
+      hit.primitive = 0;
+      const HitPoint hp = hit_point(*p, ray, hit);
+      // The exact point in double, relative to the primitive (exact differences of floats).
+      double q[3], n[3];
+      for (int k = 0; k < 3; ++k) q[k] = (double(ray.origin[k]) - p->data[k]) + double(t) * ray.direction[k];
+      if (p == &sphere) {
+        for (int k = 0; k < 3; ++k) n[k] = q[k];
+      } else {  // along z: the radial part, tilted by the slope (apex radius - base radius) / height
+        const double h = double(p->data[6]) - p->data[2], rb = p->data[3], ra = p->data[7];
+        const double slope = (ra - rb) / h, radius = rb + slope * q[2], len = std::hypot(q[0], q[1]);
+        n[0] = q[0] / len * radius;
+        n[1] = q[1] / len * radius;
+        n[2] = -slope * radius;
+      }
+      const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+      const Vec3 from_rounded = geometric_normal(*p, hp.p);
+      double err = 0;
+      for (int k = 0; k < 3; ++k) {
+        err = std::max(err, std::fabs(double(hp.normal[k]) - n[k] / len));
+        worst_rounded = std::max(worst_rounded, std::fabs(double(from_rounded[k]) - n[k] / len));
+      }
+      (p == &sphere ? worst_sphere : worst_cone) = std::max(p == &sphere ? worst_sphere : worst_cone, err);
+    }
+  }
+  CHECK(worst_sphere < 1e-5);
+  CHECK(worst_cone < 1e-5);
+  CHECK(worst_rounded > 1e-3);  // what a normal from the rounded point errs by here
+}
+
 TEST_CASE("normals: triangles with edges of 1e10 to 1e30 and of 1e-20 get a unit normal") {
   // Before: the squared length overflowed float and the normal came out 0.
   for (float s : {1e-20f, 1e10f, 1e15f, 1e30f}) {
