@@ -95,6 +95,7 @@ void run_bench(const BenchOptions& o) {
                "build s", "rays", "cells/ray", "tests/ray", "grid Mray/s", "embree Mray/s", "ratio");
   for (const std::string& spec : o.scenes) {
     core::SceneSource source(spec, o.tessellate);
+    source.eye_origin = true;  // the rays render traces
     source.view = o.view;
     const core::Scene scene = core::load_scene(source);
     const core::Database db = core::make_database(scene);

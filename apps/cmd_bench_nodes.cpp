@@ -72,7 +72,7 @@ double mailbox_throughput(std::uint32_t producers, std::uint64_t per_producer, s
 
 /// Microseconds per round trip between two nodes of an emulated machine.
 struct NodesBenchOptions {
-  core::SceneSource source;
+  core::SceneSource source = tracing_source();
   std::string nodes = "1,2,4,8,16,32,64";  ///< --nodes: a list, "1,2,4" or "1..64" (parse_node_list)
   NodeRunOptions run = [] {
     NodeRunOptions r;  // the paper's 512x512 image; the machine's defaults are every command's

@@ -261,6 +261,7 @@ Prepared& prepare(std::map<int, Prepared>& cache, const std::string& scene, cons
   Prepared& p = cache[tessellate];
   if (!p.db) {
     core::SceneSource source(scene, tessellate);
+    source.eye_origin = true;  // render's space
     source.view = view;
     p.db = std::make_unique<core::Database>(core::make_database(core::load_scene(source)));
   }

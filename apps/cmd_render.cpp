@@ -49,7 +49,7 @@ namespace raynode::apps {
 namespace {
 
 struct RenderOptions {
-  core::SceneSource source;
+  core::SceneSource source = tracing_source();
   std::string output = "render.png";
   std::string mode = "sequential";
   std::string accel = "grid";

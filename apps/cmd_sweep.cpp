@@ -215,7 +215,7 @@ void fill_run(Table& t, std::size_t row, const NodeRun& r, std::uint32_t nodes, 
 // --- Options and the common frame of a sweep ---------------------------------
 
 struct SweepOptions {
-  core::SceneSource source;
+  core::SceneSource source = tracing_source();
   NodeRunOptions run;
   bool full = false;
   std::string output;  ///< PREFIX; "" = sweep-KIND-SCENE

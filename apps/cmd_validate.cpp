@@ -20,7 +20,7 @@ namespace raynode::apps {
 namespace {
 
 struct ValidateOptions {
-  core::SceneSource source;
+  core::SceneSource source = tracing_source();
   std::string json;  ///< --json: "" none, "-" stdout, else a file
   bool quiet = false;
   core::ValidateParams params;

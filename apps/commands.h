@@ -48,6 +48,16 @@ void add_camera_options(CLI::App& cmd, core::ViewOverride& view);
 /// `skip_empty` must outlive the parse.
 void add_skip_empty_option(CLI::App& cmd, bool& skip_empty);
 
+/// A scene source for the commands that trace rays (render, validate, bench
+/// accel, bench nodes, bench quality, sweep): the scene is moved so that its
+/// eye lies at the origin (core::eye_at_origin), where the tracer's
+/// arithmetic is finest; scene info and scene write keep its coordinates.
+inline core::SceneSource tracing_source() {
+  core::SceneSource s;
+  s.eye_origin = true;
+  return s;
+}
+
 /// Adds --grid-density LAMBDA (cells per primitive, in [0.01, 1000]) to a
 /// subcommand; `density` must outlive the parse. See set_grid_density.
 void add_grid_density_option(CLI::App& cmd, float& density);

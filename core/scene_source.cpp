@@ -44,6 +44,7 @@ Scene load_scene(const SceneSource& source) {
   }
   apply_view_override(s, source.view);
   transform_scene(s, source.transform);
+  if (source.eye_origin) transform_scene(s, eye_at_origin(s));
   return s;
 }
 

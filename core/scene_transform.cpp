@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace raynode::core {
@@ -43,6 +44,32 @@ void transform_scene(Scene& scene, const SceneTransform& t) {
   point(scene.view.from, "view 'from'");
   point(scene.view.at, "view 'at'");
   scene.view.hither = length(scene.view.hither, "view 'hither'");
+}
+
+SceneTransform eye_at_origin(const Scene& scene) {
+  Vec3 eye = scene.view.from;
+  if (!scene.has_view) {
+    const Bounds3 b = scene.bounds();
+    if (b.empty()) return {};
+    for (int a = 0; a < 3; ++a) eye[a] = float(0.5 * (double(b.lower[a]) + double(b.upper[a])));
+  }
+  bool fits = true;
+  auto check = [&](const Vec3& p) {
+    for (int a = 0; a < 3; ++a) fits &= std::fabs(double(p[a]) - double(eye[a])) <= double(std::numeric_limits<float>::max());
+  };
+  for (const Vec3& v : scene.vertices) check(v);
+  for (const Sphere& s : scene.spheres) check(s.center);
+  for (const Cone& c : scene.cones) {
+    check(c.base);
+    check(c.apex);
+  }
+  for (const Light& l : scene.lights) check(l.position);
+  check(scene.view.from);
+  check(scene.view.at);
+  if (!fits || !(std::isfinite(eye.x) && std::isfinite(eye.y) && std::isfinite(eye.z))) return {};
+  SceneTransform t;
+  t.translate = {-double(eye.x), -double(eye.y), -double(eye.z)};
+  return t;
 }
 
 }  // namespace raynode::core

@@ -281,3 +281,29 @@ TEST_CASE("transform_scene: scales and moves geometry, lights and view, and refu
   bad.scale = 1e36;
   CHECK_THROWS_AS(transform_scene(s, bad), std::invalid_argument);
 }
+
+TEST_CASE("eye_at_origin: the rendering space puts the eye, or the bounds' centre, at the origin") {
+  const char* nff = "v\nfrom 1000.5 -2000 3000.25\nat 1000 -2000 3000\nup 0 1 0\nangle 45\nhither 1\nresolution 8 8\n"
+                    "l 1001 -1998 3002\nf 1 0 0 1 0 0 0 0\ns 1001 -1999 3001 0.5\np 3\n1000 -2000 3000\n1001 -2000 3000\n"
+                    "1000 -1999 3000\n";
+  Scene s = parse_nff(nff);
+  const SceneTransform t = eye_at_origin(s);
+  CHECK(t.scale == 1.0);
+  CHECK(t.translate == std::array<double, 3>{-1000.5, 2000, -3000.25});
+  transform_scene(s, t);
+  CHECK(s.view.from == Vec3{0, 0, 0});
+  CHECK(s.view.at == Vec3{-0.5f, 0, -0.25f});  // exact differences: the view's direction is kept
+  CHECK(s.lights[0].position == Vec3{0.5f, 2, 1.75f});
+  CHECK(s.spheres[0].center == Vec3{0.5f, 1, 0.75f});
+  CHECK(s.vertices[2] == Vec3{-0.5f, 1, -0.25f});
+  // No view: the centre of the bounds.
+  Scene nv = parse_nff("f 1 0 0 1 0 0 0 0\np 3\n100 200 300\n102 200 300\n100 204 306\n");
+  nv.has_view = false;
+  const SceneTransform c = eye_at_origin(nv);
+  CHECK(c.translate == std::array<double, 3>{-101, -202, -303});
+  // A difference beyond float's range: left where it is.
+  Scene wide = parse_nff(nff);
+  wide.vertices[0] = Vec3{-3e38f, 0, 0};
+  wide.view.from = Vec3{3e38f, 0, 0};
+  CHECK(eye_at_origin(wide).is_identity());
+}
