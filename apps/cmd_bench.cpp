@@ -94,8 +94,7 @@ void run_bench(const BenchOptions& o) {
     fmt::print("{:<12} {:>9} {:>12} {:>9} {:>10} {:>11} {:>11} {:>12} {:>12} {:>8}\n", "scene", "prims", "grid res",
                "build s", "rays", "cells/ray", "tests/ray", "grid Mray/s", "embree Mray/s", "ratio");
   for (const std::string& spec : o.scenes) {
-    core::SceneSource source(spec, o.tessellate);
-    source.eye_origin = true;  // the rays render traces
+    core::SceneSource source = tracing_source(spec, o.tessellate);  // the rays render traces
     source.view = o.view;
     const core::Scene scene = core::load_scene(source);
     const core::Database db = core::make_database(scene);

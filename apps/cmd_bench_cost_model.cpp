@@ -45,11 +45,10 @@ struct CostModelOptions {
   bool quiet = false;            ///< -q: no progress lines
 };
 
-/// "name:size@R" -> SceneSource with --tessellate R.
+/// "name:size@R" -> SceneSource with --tessellate R, in render's space.
 core::SceneSource parse_scene(const std::string& text) {
-  core::SceneSource s;
   const std::size_t at = text.find('@');
-  s.spec = text.substr(0, at);
+  core::SceneSource s = tracing_source(text.substr(0, at));
   if (at != std::string::npos) {
     try {
       s.tessellate = std::stoi(text.substr(at + 1));

@@ -260,8 +260,7 @@ Prepared& prepare(std::map<int, Prepared>& cache, const std::string& scene, cons
                   int tessellate, const std::string& accel, core::GridKind grid_kind) {
   Prepared& p = cache[tessellate];
   if (!p.db) {
-    core::SceneSource source(scene, tessellate);
-    source.eye_origin = true;  // render's space
+    core::SceneSource source = tracing_source(scene, tessellate);
     source.view = view;
     p.db = std::make_unique<core::Database>(core::make_database(core::load_scene(source)));
   }

@@ -12,6 +12,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/grid.h"
@@ -49,11 +50,12 @@ void add_camera_options(CLI::App& cmd, core::ViewOverride& view);
 void add_skip_empty_option(CLI::App& cmd, bool& skip_empty);
 
 /// A scene source for the commands that trace rays (render, validate, bench
-/// accel, bench nodes, bench quality, sweep): the scene is moved so that its
-/// eye lies at the origin (core::eye_at_origin), where the tracer's
-/// arithmetic is finest; scene info and scene write keep its coordinates.
-inline core::SceneSource tracing_source() {
-  core::SceneSource s;
+/// accel, bench nodes, bench quality, bench cost-model, sweep): `spec` with
+/// --tessellate R, moved so that its eye lies at the origin
+/// (core::eye_at_origin), where the tracer's arithmetic is finest; scene
+/// info and scene write keep its coordinates.
+inline core::SceneSource tracing_source(std::string spec = {}, int tessellate = 0) {
+  core::SceneSource s(std::move(spec), tessellate);
   s.eye_origin = true;
   return s;
 }

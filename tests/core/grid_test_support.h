@@ -1,7 +1,8 @@
-// Helpers shared by the grid test suites (grid_*_test.cpp): random scenes,
-// a brute-force closest hit over every primitive with the single-primitive
-// tests (the grid must reproduce its t bit for bit), and a RayChecker that
-// compares the grid with brute force and with Embree (embree_scene.h).
+// Helpers shared by the grid test suites (grid_*_test.cpp): random scenes
+// (random_scene.h), a brute-force closest hit over every primitive with the
+// single-primitive tests (the grid must reproduce its t bit for bit), and a
+// RayChecker that compares the grid with brute force and with Embree
+// (embree_scene.h).
 #pragma once
 
 #include <algorithm>
@@ -21,13 +22,13 @@
 #include "core/scene.h"
 #include "core/traverse.h"
 #include "core/validate.h"
+#include "random_scene.h"
 
 #include <doctest/doctest.h>
 
 namespace raynode::testing::grid {
 
 using namespace raynode::core;
-using Rng = std::mt19937_64;
 
 // ---------------------------------------------------------------------------
 // Helpers
@@ -57,21 +58,6 @@ inline std::string mismatch_lines(const ValidateReport& rep) {
   for (const MismatchExample& m : rep.examples)
     lines += "\n  " + m.set + " " + str(m.ray) + ": grid " + str(m.grid) + ", Embree " + str(m.embree);
   return lines;
-}
-
-inline float uniform(Rng& rng, float lo, float hi) { return std::uniform_real_distribution<float>(lo, hi)(rng); }
-
-inline Vec3 random_in(Rng& rng, const Bounds3& b) {
-  return {uniform(rng, b.lower.x, b.upper.x), uniform(rng, b.lower.y, b.upper.y),
-          uniform(rng, b.lower.z, b.upper.z)};
-}
-
-inline Vec3 random_unit(Rng& rng) {
-  std::normal_distribution<float> n(0.0f, 1.0f);
-  for (;;) {
-    const Vec3 v{n(rng), n(rng), n(rng)};
-    if (length(v) > 1e-3f) return normalize(v);
-  }
 }
 
 inline Bounds3 grown(Bounds3 b, float fraction) {
@@ -242,25 +228,6 @@ struct RayChecker {
     CHECK(any.count == 0);
   }
 };
-
-// Random triangles, spheres and open cones of about `size` in [-1,1]^3.
-inline Scene random_scene(std::uint64_t seed, int triangles, int spheres, int cones, float size) {
-  Rng rng(seed);
-  Scene s;
-  const Bounds3 box{{-1, -1, -1}, {1, 1, 1}};
-  for (int i = 0; i < triangles; ++i) {
-    const Vec3 c = random_in(rng, box);
-    const Vec3 v[3] = {c + random_unit(rng) * size, c + random_unit(rng) * size, c + random_unit(rng) * size};
-    s.add_polygon(v, 3);
-  }
-  for (int i = 0; i < spheres; ++i) s.add_sphere({random_in(rng, box), size * uniform(rng, 0.2f, 1.0f)});
-  for (int i = 0; i < cones; ++i) {
-    const Vec3 base = random_in(rng, box);
-    s.add_cone({base, size * uniform(rng, 0.1f, 0.6f), base + random_unit(rng) * (2 * size),
-                size * uniform(rng, 0.0f, 0.6f)});
-  }
-  return s;
-}
 
 // A point inside the primitive (triangle centroid, sphere centre, cone axis
 // midpoint): a ray aimed at it crosses the surface away from any edge.

@@ -15,7 +15,6 @@
 #include <bit>
 #include <cstdint>
 #include <cstdio>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -26,6 +25,7 @@
 #include "core/scene.h"
 #include "core/scene_source.h"
 #include "core/traverse.h"
+#include "random_scene.h"
 
 using namespace raynode::core;
 
@@ -35,32 +35,8 @@ struct LocalView : DirectView {
   using DirectView::DirectView;
 };
 
-using Rng = std::mt19937_64;
-
-float uniform(Rng& rng, float lo, float hi) { return std::uniform_real_distribution<float>(lo, hi)(rng); }
-
-Vec3 random_in(Rng& rng, const Bounds3& b) {
-  return {uniform(rng, b.lower.x, b.upper.x), uniform(rng, b.lower.y, b.upper.y), uniform(rng, b.lower.z, b.upper.z)};
-}
-
-// Random triangles, spheres and cones of about `size` in the unit cube.
-Scene soup(std::uint64_t seed, int triangles, int spheres, int cones, float size) {
-  Rng rng(seed);
-  Scene s;
-  const Bounds3 box{{0, 0, 0}, {1, 1, 1}};
-  auto jitter = [&] { return Vec3{uniform(rng, -size, size), uniform(rng, -size, size), uniform(rng, -size, size)}; };
-  for (int i = 0; i < triangles; ++i) {
-    const Vec3 c = random_in(rng, box);
-    const Vec3 v[3] = {c + jitter(), c + jitter(), c + jitter()};
-    s.add_polygon(v, 3);
-  }
-  for (int i = 0; i < spheres; ++i) s.add_sphere({random_in(rng, box), size * uniform(rng, 0.2f, 1.0f)});
-  for (int i = 0; i < cones; ++i) {
-    const Vec3 base = random_in(rng, box);
-    s.add_cone({base, size * uniform(rng, 0.1f, 0.6f), base + jitter() * 2.0f, size * uniform(rng, 0.0f, 0.5f)});
-  }
-  return s;
-}
+using raynode::testing::grid::random_in;
+using raynode::testing::grid::Rng;
 
 std::uint32_t bits(float f) { return std::bit_cast<std::uint32_t>(f); }
 
@@ -125,7 +101,7 @@ int main() {
 
   const Database teapot = make_database(load_scene({"teapot:3", 0}));
   const Database rings = make_database(load_scene({"rings:2", 0}));
-  const Database mixed = make_database(soup(3, 1500, 150, 80, 0.04f));
+  const Database mixed = make_database(raynode::testing::grid::random_scene(3, 1500, 150, 80, 0.04f));
   dump("teapot:3", teapot, uniform_grid, 0, PackKinds::kTriangles);
   dump("teapot:3", teapot, adaptive_grid, 1, PackKinds::kTriangles);
   dump("teapot:3", teapot, deep, 1, PackKinds::kTriangles);

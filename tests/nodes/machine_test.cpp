@@ -42,16 +42,22 @@ void shutdown_after_token(NodeContext& host, Token& out) {
   for (NodeId i = 0; i < host.node_count(); ++i) host.send(i, MessageType::kShutdown, Token{});
 }
 
+/// Runs a token ring of `laps` laps on a machine of `nodes` nodes; `result`
+/// gets the token the host received.
+RunReport run_token_ring(std::uint32_t nodes, std::uint32_t laps, Token& result) {
+  MachineParams p;
+  p.nodes = nodes;
+  p.timeout_s = 60;
+  Machine machine(p);
+  return machine.run([laps](NodeContext& ctx) { token_ring_node(ctx, laps); },
+                     [&](NodeContext& host) { shutdown_after_token(host, result); });
+}
+
 }  // namespace
 
 TEST_CASE("machine: 256 nodes pass a token round the ring 3 times and all terminate cleanly") {
-  MachineParams p;
-  p.nodes = 256;
-  p.timeout_s = 60;
-  Machine machine(p);
   Token result{};
-  const RunReport r = machine.run([](NodeContext& ctx) { token_ring_node(ctx, 3); },
-                                  [&](NodeContext& host) { shutdown_after_token(host, result); });
+  const RunReport r = run_token_ring(256, 3, result);
   CHECK(result.laps == 3);
   CHECK(result.visits == 3 * 256);  // 255 per lap, +1 at the start, +1 by node 0 on each lap but the last
   REQUIRE(r.nodes.size() == 256);
@@ -63,13 +69,8 @@ TEST_CASE("machine: 256 nodes pass a token round the ring 3 times and all termin
 }
 
 TEST_CASE("machine: the JSON totals list every message type, zeros included, the host and nodes only those they used") {
-  MachineParams p;
-  p.nodes = 4;
-  p.timeout_s = 60;
-  Machine machine(p);
   Token result{};
-  const RunReport r = machine.run([](NodeContext& ctx) { token_ring_node(ctx, 1); },
-                                  [&](NodeContext& host) { shutdown_after_token(host, result); });
+  const RunReport r = run_token_ring(4, 1, result);
   const nlohmann::json j = r.to_json(true);
   const NodeCounters counts = r.total();
   for (const std::string side : {"sent", "received"}) {
