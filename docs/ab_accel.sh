@@ -1,6 +1,8 @@
 #!/bin/bash
-# A/B of grid walk and build between raynode builds, as quoted in
-# docs/results.md ("The grid against Embree"):
+# A/B of grid walk and build between raynode builds on a machine of at
+# least eight physical cores, one pinned benchmark per core (on a small
+# machine, docs/ab_pair.sh runs one benchmark at a time; docs/results.md's
+# "The grid against Embree" quotes such a run over this corpus):
 #
 #   docs/ab_accel.sh DIR OUT.txt
 #
