@@ -641,30 +641,42 @@ class AdaptiveBuilder {
     // 4 pi r^2 times the box's share of the sphere's box to the power 2/3,
     // about 1.5 cells thick), not its whole box's.
     const double cell_area = std::pow(double(sub.cell_size[0]) * sub.cell_size[1] * sub.cell_size[2], 2.0 / 3.0);
+    // A sub-cell lists at most kSubGridGain of the cell's primitives, and a
+    // ray crossing the sub-grid (about cbrt(m) cells) meets at most the n
+    // references it would meet in the leaf.
+    const double cbrt_m = std::cbrt(m);
+    const auto pays = [&](double refs) {
+      const double r = refs / m;
+      return r <= kSubGridGain * n && cbrt_m * r <= n;
+    };
     double refs = 0;
+    std::size_t i = 0;
     for (const std::uint32_t id : list) {
+      // The sum only grows: once a partial sum does not pay, the whole
+      // will not (the same answer, without the rest of a long list).
+      if (++i % 64 == 0 && !pays(refs)) return false;
       const Primitive& p = db_.primitives[id];
       const Bounds3& pb = bounds_[id];
-      double k = 1, share = 1;
+      double k = 1, clipped[3];
       for (int a = 0; a < 3; ++a) {
         const double lo = std::max(double(pb.lower[a]), double(sub.bounds.lower[a]));
         const double hi = std::min(double(pb.upper[a]), double(sub.bounds.upper[a]));
-        k *= std::min(double(sub.res[a]), std::max(0.0, hi - lo) / sub.cell_size[a] + 1.0);
-        const double full = double(pb.upper[a]) - double(pb.lower[a]);
-        if (full > 0) share *= std::max(0.0, hi - lo) / full;
+        clipped[a] = std::max(0.0, hi - lo);
+        k *= std::min(double(sub.res[a]), clipped[a] / sub.cell_size[a] + 1.0);
       }
       if (p.kind == PrimitiveKind::kSphere) {
+        double share = 1;
+        for (int a = 0; a < 3; ++a) {
+          const double full = double(pb.upper[a]) - double(pb.lower[a]);
+          if (full > 0) share *= clipped[a] / full;
+        }
         const double r = double(p.radius());
         const double area = 4.0 * std::numbers::pi * r * r * (share < 1.0 ? two_thirds_power(share) : 1.0);
         k = std::min(k, kSurfaceCellsPerArea * area / cell_area + 1.0);
       }
       refs += k;
     }
-    // A sub-cell lists at most kSubGridGain of the cell's primitives, and a
-    // ray crossing the sub-grid (about cbrt(m) cells) meets at most the n
-    // references it would meet in the leaf.
-    const double r = refs / m;
-    return r <= kSubGridGain * n && std::cbrt(m) * r <= n;
+    return pays(refs);
   }
 
   // The part of `cell` (a cell of `info`) that `list`'s primitives can
