@@ -91,8 +91,9 @@ void run_bench(const BenchOptions& o) {
   const bool text = o.json != "-";  // the table, unless the JSON goes to stdout
   nlohmann::json out = nlohmann::json::array();
   if (text)
-    fmt::print("{:<12} {:>9} {:>12} {:>9} {:>10} {:>11} {:>11} {:>12} {:>12} {:>8}\n", "scene", "prims", "grid res",
-               "build s", "rays", "cells/ray", "tests/ray", "grid Mray/s", "embree Mray/s", "ratio");
+    fmt::print("{:<12} {:>9} {:>12} {:>9} {:>10} {:>11} {:>11} {:>12} {:>12} {:>8} {:>8}\n", "scene", "prims",
+               "grid res", "build s", "rays", "cells/ray", "tests/ray", "grid Mray/s", "embree Mray/s", "ratio",
+               "memory");
   for (const std::string& spec : o.scenes) {
     core::SceneSource source = tracing_source(spec, o.tessellate);  // the rays render traces
     source.view = o.view;
@@ -135,6 +136,9 @@ void run_bench(const BenchOptions& o) {
     const core::TraversalStats& st = scratch.stats;  // one run's counts
     const double n = double(rs.closest.size() + rs.shadow.size());
     const double ratio = grid_s / embree_s;
+    // The grid's structure with its packed cells (their triangle and sphere
+    // copies) against Embree's BVH with the copies in its leaves.
+    const std::size_t grid_bytes = grid.bytes() + blocks.bytes(), embree_bytes = embree.build_bytes();
     nlohmann::json j = {{"scene", spec},
                         {"tessellate", o.tessellate},
                         {"primitives", db.primitives.size()},
@@ -144,6 +148,10 @@ void run_bench(const BenchOptions& o) {
                         {"grid", grid_json(grid)},
                         {"grid_build_s", build_s},
                         {"embree_build_s", embree_build_s},
+                        {"grid_bytes", grid_bytes},
+                        {"packed_bytes", blocks.bytes()},
+                        {"embree_bytes", embree_bytes},
+                        {"grid_over_embree_memory", embree_bytes ? double(grid_bytes) / double(embree_bytes) : 0.0},
                         {"skip_empty", o.skip_empty},
                         {"pack_cells", o.pack_min},
                         {"packed_blocks", blocks.blocks.size()},
@@ -162,20 +170,22 @@ void run_bench(const BenchOptions& o) {
                         {"run", run_json()}};
     out.push_back(j);
     if (text)
-      fmt::print("{:<12} {:>9} {:>12} {:>9.2f} {:>10} {:>11.1f} {:>11.1f} {:>12.2f} {:>12.2f} {:>8.2f}\n", spec,
-                 db.primitives.size(), fmt::format("{}x{}x{}", grid.info.res[0], grid.info.res[1], grid.info.res[2]),
-                 build_s, std::uint64_t(n), double(st.cells_visited) / n,
+      fmt::print("{:<12} {:>9} {:>12} {:>9.2f} {:>10} {:>11.1f} {:>11.1f} {:>12.2f} {:>12.2f} {:>8.2f} {:>8.2f}\n",
+                 spec, db.primitives.size(),
+                 fmt::format("{}x{}x{}", grid.info.res[0], grid.info.res[1], grid.info.res[2]), build_s,
+                 std::uint64_t(n), double(st.cells_visited) / n,
                  double(st.triangle_tests + st.sphere_tests + st.cone_tests) / n, n / grid_s * 1e-6,
-                 n / embree_s * 1e-6, ratio);
+                 n / embree_s * 1e-6, ratio, embree_bytes ? double(grid_bytes) / double(embree_bytes) : 0.0);
   }
   if (!o.json.empty()) {
     files.text(json_out, out.dump(2) + "\n");
     files.commit();
   }
   if (text)
-    fmt::print("ratio = grid time / Embree time (one thread, same rays; lower is better); grid res = the {} grid{}\n",
-                  core::grid_kind_name(grid_kind_for(o.grid)),
-                  grid_kind_for(o.grid) == core::GridKind::kAdaptive ? "'s top grid" : "");
+    fmt::print("ratio = grid time / Embree time (one thread, same rays; lower is better); memory = the grid's bytes "
+               "with its packed cells / Embree's BVH bytes; grid res = the {} grid{}\n",
+               core::grid_kind_name(grid_kind_for(o.grid)),
+               grid_kind_for(o.grid) == core::GridKind::kAdaptive ? "'s top grid" : "");
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 #include <embree3/rtcore.h>
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -123,7 +124,20 @@ struct EmbreeScene::Impl {
   RTCScene scene = nullptr;
   std::vector<std::uint32_t> ids[3];  // per geometry: Embree primID -> database id
   ConeData cone_data{};
+  std::atomic<std::int64_t> build_bytes{0};  // net bytes the device allocated during the build
 };
+
+namespace {
+
+// Embree's memory monitor, set for the build only: called on its build
+// threads, before an allocation with +bytes and after a free (or a failed
+// allocation) with -bytes; never refuses.
+bool count_build_bytes(void* user, ssize_t bytes, bool /*post*/) {
+  static_cast<std::atomic<std::int64_t>*>(user)->fetch_add(std::int64_t(bytes), std::memory_order_relaxed);
+  return true;
+}
+
+}  // namespace
 
 EmbreeScene::EmbreeScene(const Database& db) : impl_(std::make_unique<Impl>()) {
   Impl& m = *impl_;
@@ -182,7 +196,9 @@ EmbreeScene::EmbreeScene(const Database& db) : impl_(std::make_unique<Impl>()) {
     rtcAttachGeometryByID(m.scene, g, kConeGeometry);
     rtcReleaseGeometry(g);
   }
+  rtcSetDeviceMemoryMonitorFunction(m.device, count_build_bytes, &m.build_bytes);
   rtcCommitScene(m.scene);
+  rtcSetDeviceMemoryMonitorFunction(m.device, nullptr, nullptr);
   if (rtcGetDeviceError(m.device) != RTC_ERROR_NONE) throw_embree(m.device, "scene build");
 }
 
@@ -191,6 +207,10 @@ EmbreeScene::~EmbreeScene() {
     if (impl_->scene) rtcReleaseScene(impl_->scene);
     if (impl_->device) rtcReleaseDevice(impl_->device);
   }
+}
+
+std::size_t EmbreeScene::build_bytes() const {
+  return std::size_t(std::max<std::int64_t>(0, impl_->build_bytes.load(std::memory_order_relaxed)));
 }
 
 bool EmbreeScene::intersect_closest(const Ray& ray, Hit& hit) const {

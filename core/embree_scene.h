@@ -10,6 +10,7 @@
 // Thread-safe for concurrent queries after construction.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -36,6 +37,13 @@ class EmbreeScene {
   bool intersect_closest(const Ray& ray, Hit& hit) const;
   /// Any hit in (ray.tmin, ray.tmax).
   bool intersect_any(const Ray& ray) const;
+
+  /// Bytes Embree's scene build kept: what its device allocated, less what
+  /// it freed, while it built the acceleration structure (Embree's memory
+  /// monitor, rtcSetDeviceMemoryMonitorFunction), so its BVH with the
+  /// primitive copies in its leaves, not the geometry buffers it was given.
+  /// The like-for-like figure for a grid's bytes with its packed cells.
+  std::size_t build_bytes() const;
 
  private:
   struct Impl;

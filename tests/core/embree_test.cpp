@@ -5,6 +5,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <cstdint>
 
 #include "core/database.h"
 #include "core/direct_view.h"
@@ -86,4 +87,25 @@ TEST_CASE("embree oracle: cone hits are reported only in (tmin, tmax), at the gr
   REQUIRE(embree.intersect_closest(from, e));
   CHECK(g.t > upto.tmax);
   CHECK(e.t == g.t);
+}
+
+// bench accel sets the grid's memory against the bytes Embree's build kept
+// (its memory monitor): a BVH references every primitive at least once.
+TEST_CASE("embree oracle: the build's bytes grow with the scene and cover a reference per primitive") {
+  auto strip = [](int n) {
+    Scene s;
+    for (int i = 0; i < n; ++i) {
+      const float x = float(i);
+      const Vec3 tri[3] = {{x, 0, 0}, {x + 0.9f, 0, 0}, {x, 1, 0.1f * float(i % 7)}};
+      s.add_polygon(tri, 3);
+    }
+    return make_database(s);
+  };
+  const Database small_db = strip(500), large_db = strip(20000);
+  const EmbreeScene small(small_db), large(large_db);
+  CAPTURE(small.build_bytes());
+  CAPTURE(large.build_bytes());
+  CHECK(small.build_bytes() >= 500 * sizeof(std::uint32_t));
+  CHECK(large.build_bytes() >= 20000 * sizeof(std::uint32_t));
+  CHECK(large.build_bytes() > 10 * small.build_bytes());
 }
