@@ -43,8 +43,7 @@ Scene load_scene(const SceneSource& source) {
     s = make_spd_scene(p);
   }
   apply_view_override(s, source.view);
-  transform_scene(s, source.transform);
-  if (source.eye_origin) transform_scene(s, eye_at_origin(s));
+  transform_scene(s, source.eye_origin ? eye_at_origin_after(s, source.transform) : source.transform);
   return s;
 }
 

@@ -28,7 +28,8 @@ struct SceneSource {
   SceneTransform transform;  ///< --scale / --translate, applied after tessellation
   ViewOverride view;         ///< --eye / --at / --up / --fov, applied before `transform`
   /// Then move the scene so that its eye lies at the origin (eye_at_origin,
-  /// scene_transform.h): the rendering commands' space. Off for the
+  /// scene_transform.h): the rendering commands' space, composed with
+  /// `transform` and rounded once (eye_at_origin_after). Off for the
   /// commands that show or write the scene's own coordinates.
   bool eye_origin = false;
 };
@@ -37,8 +38,9 @@ struct SceneSource {
 bool is_scene_file(const std::string& spec);
 
 /// Loads the scene, tessellates it, applies the view override
-/// (apply_view_override), then `transform` (transform_scene), then, with
-/// `eye_origin`, eye_at_origin's translation. A mesh's notes
+/// (apply_view_override), then `transform` (transform_scene), or, with
+/// `eye_origin`, `transform` and eye_at_origin's translation as one
+/// (eye_at_origin_after). A mesh's notes
 /// (defaults filled in, things skipped: mesh_file.h) go to stderr, one line
 /// each, prefixed "raynode: ". Throws ParseError (malformed file, with file:line:col),
 /// std::runtime_error (unreadable file, more than the memory limit:

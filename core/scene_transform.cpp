@@ -8,42 +8,84 @@
 
 namespace raynode::core {
 
-void transform_scene(Scene& scene, const SceneTransform& t) {
+namespace {
+
+void check_parameters(const SceneTransform& t) {
   if (!(std::isfinite(t.scale) && t.scale > 0.0))
     throw std::invalid_argument(fmt::format("scale must be finite and positive, got {}", t.scale));
   for (double x : t.translate)
     if (!std::isfinite(x)) throw std::invalid_argument(fmt::format("translation must be finite, got {}", x));
-  if (t.is_identity()) return;
-  auto length = [&](float v, const char* what) {
+}
+
+/// Maps every point and length of `scene` by `t`, each computed in double
+/// and rounded once (kApply), or only checks that every result fits in a
+/// float; throws std::invalid_argument naming the first that does not.
+template <bool kApply, class SceneT>
+void map_scene(SceneT& scene, const SceneTransform& t) {
+  auto length = [&](auto& v, const char* what) {
     const double r = double(v) * t.scale;
     if (!(std::fabs(r) <= double(std::numeric_limits<float>::max())))
       throw std::invalid_argument(fmt::format("{} {} scaled by {} does not fit in a float", what, v, t.scale));
-    return float(r);
+    if constexpr (kApply) v = float(r);
   };
-  auto point = [&](Vec3& p, const char* what) {
+  auto point = [&](auto& p, const char* what) {
     for (int a = 0; a < 3; ++a) {
       const double r = double(p[a]) * t.scale + t.translate[std::size_t(a)];
       if (!(std::fabs(r) <= double(std::numeric_limits<float>::max())))
         throw std::invalid_argument(fmt::format("{} ({}, {}, {}) transformed does not fit in a float", what, p.x,
                                                 p.y, p.z));
-      p[a] = float(r);
+      if constexpr (kApply) p[a] = float(r);
     }
   };
-  for (Vec3& v : scene.vertices) point(v, "vertex");
-  for (Sphere& s : scene.spheres) {
+  for (auto& v : scene.vertices) point(v, "vertex");
+  for (auto& s : scene.spheres) {
     point(s.center, "sphere centre");
-    s.radius = length(s.radius, "sphere radius");
+    length(s.radius, "sphere radius");
   }
-  for (Cone& c : scene.cones) {
+  for (auto& c : scene.cones) {
     point(c.base, "cone base");
     point(c.apex, "cone apex");
-    c.base_radius = length(c.base_radius, "cone base radius");
-    c.apex_radius = length(c.apex_radius, "cone apex radius");
+    length(c.base_radius, "cone base radius");
+    length(c.apex_radius, "cone apex radius");
   }
-  for (Light& l : scene.lights) point(l.position, "light");
+  for (auto& l : scene.lights) point(l.position, "light");
   point(scene.view.from, "view 'from'");
   point(scene.view.at, "view 'at'");
-  scene.view.hither = length(scene.view.hither, "view 'hither'");
+  length(scene.view.hither, "view 'hither'");
+}
+
+}  // namespace
+
+void transform_scene(Scene& scene, const SceneTransform& t) {
+  check_parameters(t);
+  if (t.is_identity()) return;
+  map_scene<true>(scene, t);
+}
+
+void check_transform(const Scene& scene, const SceneTransform& t) {
+  check_parameters(t);
+  if (!t.is_identity()) map_scene<false>(scene, t);
+}
+
+SceneTransform eye_at_origin_after(const Scene& scene, const SceneTransform& t) {
+  check_transform(scene, t);
+  const SceneTransform rebase = eye_at_origin(scene);
+  if (rebase.is_identity() && !t.is_identity()) {
+    // The eye's differences do not fit in float before the transform: take
+    // them after it, as the rendering space of the transformed scene.
+    Scene moved = scene;
+    transform_scene(moved, t);
+    const SceneTransform after = eye_at_origin(moved);
+    SceneTransform c = t;
+    for (std::size_t a = 0; a < 3; ++a) c.translate[a] = t.translate[a] + after.translate[a];
+    return c;
+  }
+  // x -> scale x + translate - (scale eye + translate) = scale (x - eye):
+  // the translation cancels exactly.
+  SceneTransform c;
+  c.scale = t.scale;
+  for (std::size_t a = 0; a < 3; ++a) c.translate[a] = t.scale * rebase.translate[a];
+  return c;
 }
 
 SceneTransform eye_at_origin(const Scene& scene) {

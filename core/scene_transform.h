@@ -29,6 +29,9 @@ struct SceneTransform {
 /// does not fit in a float (the message names the first such value).
 void transform_scene(Scene& scene, const SceneTransform& t);
 
+/// Throws what transform_scene(scene, t) would throw, and changes nothing.
+void check_transform(const Scene& scene, const SceneTransform& t);
+
 /// The translation that moves `scene` so that its eye (the view's 'from';
 /// the centre of its bounds when it has no view) lies at the origin: the
 /// space the rendering commands trace in (pbrt-v4's "camera-world" rendering
@@ -40,5 +43,15 @@ void transform_scene(Scene& scene, const SceneTransform& t);
 /// factor of two of the eye's (Sterbenz), so the scene's shape is kept.
 /// Identity when some coordinate minus the eye's would not fit in a float.
 SceneTransform eye_at_origin(const Scene& scene);
+
+/// `t` followed by eye_at_origin's translation of the transformed scene, as
+/// one transform: x -> scale (x - eye), the eye taken in `scene`'s own
+/// coordinates, so that `t`'s translation cancels exactly and every
+/// coordinate is rounded to float once. A scene moved with --translate
+/// thus renders exactly as where it was (only its file's own rounding, as
+/// `scene write --translate` leaves it, can change a moved picture), and a
+/// scaled one is rounded once, at the scale. Throws what
+/// transform_scene(scene, t) would throw.
+SceneTransform eye_at_origin_after(const Scene& scene, const SceneTransform& t);
 
 }  // namespace raynode::core

@@ -307,3 +307,46 @@ TEST_CASE("eye_at_origin: the rendering space puts the eye, or the bounds' centr
   wide.view.from = Vec3{3e38f, 0, 0};
   CHECK(eye_at_origin(wide).is_identity());
 }
+
+TEST_CASE("eye_at_origin_after: a translation cancels exactly, a scale is rounded once, and errors are kept") {
+  // Thirds: a float cannot hold them at 1e4, so rounding the moved scene
+  // first and then moving the eye to the origin loses them.
+  const char* nff = "v\nfrom 0.333333343 1.66666663 2.33333325\nat 0 0 0\nup 0 0 1\nangle 45\nhither 0.1\n"
+                    "resolution 8 8\nl 1 2 3\nf 1 0 0 1 0 0 0 0\ns 0.666666687 0.111111112 0.444444448 0.0370370373\n"
+                    "p 3\n0.142857149 0 0\n1 0.428571433 0\n0 0 0.285714298\n";
+  const Scene original = parse_nff(nff);
+  Scene here = original;
+  transform_scene(here, eye_at_origin(here));
+  SceneTransform move;
+  move.translate = {1e4, -1e4, 1e4};
+  Scene moved = original;
+  transform_scene(moved, eye_at_origin_after(moved, move));
+  CHECK(moved.vertices == here.vertices);
+  CHECK(moved.spheres[0].center == here.spheres[0].center);
+  CHECK(moved.spheres[0].radius == here.spheres[0].radius);
+  CHECK(moved.lights[0].position == here.lights[0].position);
+  CHECK(moved.view.at == here.view.at);
+  // Two steps (round at 1e4, then move the eye) lose the thirds.
+  Scene two_steps = original;
+  transform_scene(two_steps, move);
+  transform_scene(two_steps, eye_at_origin(two_steps));
+  CHECK(two_steps.vertices != here.vertices);
+  // A power-of-two scale: exactly the rebased scene's coordinates, doubled.
+  SceneTransform twice;
+  twice.scale = 2;
+  twice.translate = {1e4, 0, -1e4};
+  Scene scaled = original;
+  transform_scene(scaled, eye_at_origin_after(scaled, twice));
+  for (std::size_t i = 0; i < here.vertices.size(); ++i) CHECK(scaled.vertices[i] == here.vertices[i] * 2.0f);
+  CHECK(scaled.spheres[0].radius == 2.0f * here.spheres[0].radius);
+  // What transform_scene would refuse is refused, and nothing is changed.
+  SceneTransform far;
+  far.translate = {1e39, 0, 0};
+  Scene kept = original;
+  CHECK_THROWS_AS(eye_at_origin_after(kept, far), std::invalid_argument);
+  CHECK_THROWS_AS(check_transform(kept, far), std::invalid_argument);
+  CHECK(kept.vertices == original.vertices);
+  SceneTransform bad;
+  bad.scale = -1;
+  CHECK_THROWS_AS(check_transform(kept, bad), std::invalid_argument);
+}
