@@ -54,6 +54,17 @@ void map_scene(SceneT& scene, const SceneTransform& t) {
   length(scene.view.hither, "view 'hither'");
 }
 
+/// The eye of the rendering space: the view's 'from', or the centre of the
+/// bounds without a view; false for a scene without either.
+bool rendering_eye(const Scene& scene, Vec3& eye) {
+  eye = scene.view.from;
+  if (scene.has_view) return true;
+  const Bounds3 b = scene.bounds();
+  if (b.empty()) return false;
+  for (int a = 0; a < 3; ++a) eye[a] = float(0.5 * (double(b.lower[a]) + double(b.upper[a])));
+  return true;
+}
+
 }  // namespace
 
 void transform_scene(Scene& scene, const SceneTransform& t) {
@@ -70,7 +81,8 @@ void check_transform(const Scene& scene, const SceneTransform& t) {
 SceneTransform eye_at_origin_after(const Scene& scene, const SceneTransform& t) {
   check_transform(scene, t);
   const SceneTransform rebase = eye_at_origin(scene);
-  if (rebase.is_identity() && !t.is_identity()) {
+  Vec3 eye;
+  if (rebase.is_identity() && !t.is_identity() && rendering_eye(scene, eye) && !(eye == Vec3{0, 0, 0})) {
     // The eye's differences do not fit in float before the transform: take
     // them after it, as the rendering space of the transformed scene.
     Scene moved = scene;
@@ -89,12 +101,8 @@ SceneTransform eye_at_origin_after(const Scene& scene, const SceneTransform& t) 
 }
 
 SceneTransform eye_at_origin(const Scene& scene) {
-  Vec3 eye = scene.view.from;
-  if (!scene.has_view) {
-    const Bounds3 b = scene.bounds();
-    if (b.empty()) return {};
-    for (int a = 0; a < 3; ++a) eye[a] = float(0.5 * (double(b.lower[a]) + double(b.upper[a])));
-  }
+  Vec3 eye;
+  if (!rendering_eye(scene, eye)) return {};
   bool fits = true;
   auto check = [&](const Vec3& p) {
     for (int a = 0; a < 3; ++a) fits &= std::fabs(double(p[a]) - double(eye[a])) <= double(std::numeric_limits<float>::max());

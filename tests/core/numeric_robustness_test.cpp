@@ -339,6 +339,12 @@ TEST_CASE("eye_at_origin_after: a translation cancels exactly, a scale is rounde
   transform_scene(scaled, eye_at_origin_after(scaled, twice));
   for (std::size_t i = 0; i < here.vertices.size(); ++i) CHECK(scaled.vertices[i] == here.vertices[i] * 2.0f);
   CHECK(scaled.spheres[0].radius == 2.0f * here.spheres[0].radius);
+  // An eye already at the origin: the translation still cancels.
+  Scene at_origin = original;
+  at_origin.view.from = Vec3{0, 0, 0};
+  Scene at_origin_moved = at_origin;
+  transform_scene(at_origin_moved, eye_at_origin_after(at_origin_moved, move));
+  CHECK(at_origin_moved.vertices == at_origin.vertices);
   // What transform_scene would refuse is refused, and nothing is changed.
   SceneTransform far;
   far.translate = {1e39, 0, 0};
