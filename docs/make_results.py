@@ -929,35 +929,44 @@ def section_moved_scenes(src):
         if r["scene"] not in scenes:
             scenes.append(r["scene"])
         kind, value = r["transform"].split(":")
-        key = (r["scene"], "scale" if kind == "scale" else value)
+        key = (r["scene"], value if kind == "move" else kind)
         worst[key] = max(worst.get(key, 0.0), float(r["differing_fraction"]))
     moves = ["1e2", "1e3", "1e4"]
-    body = [[scene, pct(worst[(scene, "scale")], 2)] + [pct(worst[(scene, m)], 2) for m in moves] for scene in scenes]
-    over = [f"{r['scene']} {'scaled by ' if r['transform'].startswith('scale') else 'moved by '}"
+    body = [[scene, pct(worst[(scene, "scale")], 2), pct(worst[(scene, "translate")], 2)]
+            + [pct(worst[(scene, m)], 2) for m in moves] for scene in scenes]
+    what = {"scale": "scaled by ", "translate": "--translate ", "move": "written moved by "}
+    over = [f"{r['scene']} {what[r['transform'].split(':')[0]]}"
             f"{r['transform'].split(':')[1]} in {r['mode']} ({pct(float(r['differing_fraction']), 2)})"
             for r in rows
             if float(r["differing_fraction"]) > (0.005 if r["transform"].startswith("scale") else 0.02)]
     clean = [scene for scene in scenes if all(worst[(scene, m)] == 0.0 for m in moves)]
+    translate_exact = all(worst[(scene, "translate")] == 0.0 for scene in scenes)
     modes_agree = all(
         len({r["differing_fraction"] for r in rows if r["scene"] == scene and r["transform"] == t}) == 1
         for scene in scenes for t in {r["transform"] for r in rows})
     return "\n".join([
         "## Scaled and moved scenes",
         "",
-        "Each scene rendered scaled by 10^k (k = -6, -4, -2, 2, 4, 6) and moved by 10^k on all three axes "
-        "(k = 2, 3, 4), against its untransformed render in the same mode: the share of pixels where some "
-        "channel differs by more than 8/255, the worst of sequential, svm and dataflow (4 nodes) and, for the "
-        "scalings, of the six scales. The rendering commands trace with the eye at the origin "
-        "(docs/architecture.md, \"Numerical robustness\"). " + src.describe(name),
+        "Each scene rendered scaled by 10^k (k = -6, -4, -2, 2, 4, 6; `--scale`) and moved by 10^k on all three "
+        "axes (k = 2, 3, 4), both with `--translate` and as a file written there (`scene write --translate`, "
+        "whose coordinates hold a float's rounding at that place), against its untransformed render in the "
+        "same mode: the share of pixels where some channel differs by more than 8/255, the worst of "
+        "sequential, svm and dataflow (4 nodes) and, for the scalings and `--translate`, of the six scales and "
+        "three moves. The rendering commands trace with the eye at the origin, and compose `--scale` and "
+        "`--translate` with that move, rounding once (docs/architecture.md, \"Numerical robustness\"). "
+        + src.describe(name),
         "",
-        table(["scene", "scaled, worst", "moved 10^2", "moved 10^3", "moved 10^4"], body),
+        table(["scene", "scaled, worst", "--translate, worst", "file moved 10^2", "file moved 10^3",
+               "file moved 10^4"], body),
         "",
         "- The bounds are 0.5% of the pixels for a scaled scene and 2% for a moved one. Above them: "
         + ("; ".join(over) if over else "none") + ".",
         "- The three modes " + ("gave the same share on every render." if modes_agree else
                                 "did not always give the same share."),
-        "- Wherever moved, these differ on no pixel: " + (", ".join(clean) if clean else "none") + ".",
-        "- What a moved scene cannot avoid is the rounding its own coordinates get as floats there: a scene whose "
+        "- `--translate` " + ("changed no pixel of any scene." if translate_exact else
+                              "changed some pixels (see the table)."),
+        "- Written moved anywhere, these differ on no pixel: " + (", ".join(clean) if clean else "none") + ".",
+        "- What a moved file cannot avoid is the rounding its own coordinates get as floats there: a scene whose "
         "coordinates are thirds (lattice:3) cannot be held at 10^4, where a float's spacing is 1/1 200 of its "
         "size, while one of quarters (lattice:4) can.",
     ])
