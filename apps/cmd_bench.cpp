@@ -139,6 +139,7 @@ void run_bench(const BenchOptions& o) {
     // The grid's structure with its packed cells (their triangle and sphere
     // copies) against Embree's BVH with the copies in its leaves.
     const std::size_t grid_bytes = grid.bytes() + blocks.bytes(), embree_bytes = embree.build_bytes();
+    const double memory_ratio = embree_bytes ? double(grid_bytes) / double(embree_bytes) : 0.0;
     nlohmann::json j = {{"scene", spec},
                         {"tessellate", o.tessellate},
                         {"primitives", db.primitives.size()},
@@ -151,7 +152,7 @@ void run_bench(const BenchOptions& o) {
                         {"grid_bytes", grid_bytes},
                         {"packed_bytes", blocks.bytes()},
                         {"embree_bytes", embree_bytes},
-                        {"grid_over_embree_memory", embree_bytes ? double(grid_bytes) / double(embree_bytes) : 0.0},
+                        {"grid_over_embree_memory", memory_ratio},
                         {"skip_empty", o.skip_empty},
                         {"pack_cells", o.pack_min},
                         {"packed_blocks", blocks.blocks.size()},
@@ -175,7 +176,7 @@ void run_bench(const BenchOptions& o) {
                  fmt::format("{}x{}x{}", grid.info.res[0], grid.info.res[1], grid.info.res[2]), build_s,
                  std::uint64_t(n), double(st.cells_visited) / n,
                  double(st.triangle_tests + st.sphere_tests + st.cone_tests) / n, n / grid_s * 1e-6,
-                 n / embree_s * 1e-6, ratio, embree_bytes ? double(grid_bytes) / double(embree_bytes) : 0.0);
+                 n / embree_s * 1e-6, ratio, memory_ratio);
   }
   if (!o.json.empty()) {
     files.text(json_out, out.dump(2) + "\n");

@@ -65,6 +65,26 @@ bool rendering_eye(const Scene& scene, Vec3& eye) {
   return true;
 }
 
+/// True when `eye` is finite and every point of `scene` minus it fits in a
+/// float.
+bool differences_fit(const Scene& scene, const Vec3& eye) {
+  if (!(std::isfinite(eye.x) && std::isfinite(eye.y) && std::isfinite(eye.z))) return false;
+  bool fits = true;
+  auto check = [&](const Vec3& p) {
+    for (int a = 0; a < 3; ++a) fits &= std::fabs(double(p[a]) - double(eye[a])) <= double(std::numeric_limits<float>::max());
+  };
+  for (const Vec3& v : scene.vertices) check(v);
+  for (const Sphere& s : scene.spheres) check(s.center);
+  for (const Cone& c : scene.cones) {
+    check(c.base);
+    check(c.apex);
+  }
+  for (const Light& l : scene.lights) check(l.position);
+  check(scene.view.from);
+  check(scene.view.at);
+  return fits;
+}
+
 }  // namespace
 
 void transform_scene(Scene& scene, const SceneTransform& t) {
@@ -80,9 +100,10 @@ void check_transform(const Scene& scene, const SceneTransform& t) {
 
 SceneTransform eye_at_origin_after(const Scene& scene, const SceneTransform& t) {
   check_transform(scene, t);
-  const SceneTransform rebase = eye_at_origin(scene);
   Vec3 eye;
-  if (rebase.is_identity() && !t.is_identity() && rendering_eye(scene, eye) && !(eye == Vec3{0, 0, 0})) {
+  const bool has_eye = rendering_eye(scene, eye);
+  if (has_eye && !differences_fit(scene, eye)) {
+    if (t.is_identity()) return t;  // left where it is, as eye_at_origin leaves it
     // The eye's differences do not fit in float before the transform: take
     // them after it, as the rendering space of the transformed scene.
     Scene moved = scene;
@@ -96,27 +117,14 @@ SceneTransform eye_at_origin_after(const Scene& scene, const SceneTransform& t) 
   // the translation cancels exactly.
   SceneTransform c;
   c.scale = t.scale;
-  for (std::size_t a = 0; a < 3; ++a) c.translate[a] = t.scale * rebase.translate[a];
+  if (has_eye)
+    for (std::size_t a = 0; a < 3; ++a) c.translate[a] = -t.scale * double(eye[int(a)]);
   return c;
 }
 
 SceneTransform eye_at_origin(const Scene& scene) {
   Vec3 eye;
-  if (!rendering_eye(scene, eye)) return {};
-  bool fits = true;
-  auto check = [&](const Vec3& p) {
-    for (int a = 0; a < 3; ++a) fits &= std::fabs(double(p[a]) - double(eye[a])) <= double(std::numeric_limits<float>::max());
-  };
-  for (const Vec3& v : scene.vertices) check(v);
-  for (const Sphere& s : scene.spheres) check(s.center);
-  for (const Cone& c : scene.cones) {
-    check(c.base);
-    check(c.apex);
-  }
-  for (const Light& l : scene.lights) check(l.position);
-  check(scene.view.from);
-  check(scene.view.at);
-  if (!fits || !(std::isfinite(eye.x) && std::isfinite(eye.y) && std::isfinite(eye.z))) return {};
+  if (!rendering_eye(scene, eye) || !differences_fit(scene, eye)) return {};
   SceneTransform t;
   t.translate = {-double(eye.x), -double(eye.y), -double(eye.z)};
   return t;

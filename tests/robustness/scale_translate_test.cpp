@@ -3,8 +3,9 @@
 // integer k from -6) as far as float spacing stays below 1/1000 of the
 // scene's size, renders like the untransformed scene in every mode
 // (sequential, shared, replicated, svm, dataflow), and the grid agrees with
-// Embree on it (validate_grid). Moved scenes are loaded as the rendering
-// commands load them, with the eye at the origin.
+// Embree on it (validate_grid). Moved scenes are rounded where they are
+// moved to, then traced with the eye at the origin, as the rendering
+// commands trace a file written there.
 // Bounds: a scaled render may differ from the original by more than 8/255
 // in some channel on at most 0.5% of its pixels, a moved one on at most 2%
 // (or as much as the move's rounding of the scene alone makes it differ),
@@ -184,23 +185,33 @@ std::vector<Case> suite_scenes() {
   return cases;
 }
 
+/// Renders `scene` in every mode, hands each colour image to check(image)
+/// (the mode captured), and checks validate.
+template <class Check>
+void check_every_mode(const core::Scene& scene, Check&& check) {
+  const core::Database db = core::make_database(scene);
+  const core::Grid grid = core::build_grid(db);
+  for (const auto& [mode, image] : render_all_modes(db, grid)) {
+    CAPTURE(std::string(mode));
+    check(image);
+  }
+  CHECK(validate_mismatches(db, grid) == 0);
+}
+
 /// Renders `scene` transformed by `t` in every mode and checks each image
 /// against `reference` (at most `bound` of the pixels off), and validate.
 void check_transformed(const core::Scene& scene, const core::SceneTransform& t, const core::Image& reference,
                        double bound) {
   core::Scene moved = scene;
   core::transform_scene(moved, t);
-  const core::Database db = core::make_database(moved);
-  const core::Grid grid = core::build_grid(db);
-  for (const auto& [mode, image] : render_all_modes(db, grid)) {
-    CAPTURE(std::string(mode));
-    CHECK(differing_fraction(image, reference) <= bound);
-  }
-  CHECK(validate_mismatches(db, grid) == 0);
+  check_every_mode(moved, [&](const core::Image& image) { CHECK(differing_fraction(image, reference) <= bound); });
 }
 
-/// `scene` moved by t.translate, as the rendering commands load it
-/// (core::eye_at_origin), checked in every mode against two references:
+/// `scene` moved by t.translate and rounded there, then moved so that its
+/// eye lies at the origin (core::eye_at_origin): as the rendering commands
+/// load a file written there (`--translate` itself cancels exactly,
+/// core::eye_at_origin_after, so it would test nothing of the tracer).
+/// Checked in every mode against two references:
 ///  - the same scene moved there and back, which keeps exactly the move's
 ///    rounding of the scene's coordinates (its differences from the eye are
 ///    the moved scene's): at most 0.1% of the pixels may differ, so the
@@ -222,14 +233,10 @@ double check_moved(const core::Scene& scene, const core::SceneTransform& t, cons
   const core::Image round_trip = core::render(back_db, core::build_grid(back_db), render_params()).color;
   const double rounding = differing_fraction(round_trip, reference);
   CAPTURE(rounding);
-  const core::Database db = core::make_database(moved);
-  const core::Grid grid = core::build_grid(db);
-  for (const auto& [mode, image] : render_all_modes(db, grid)) {
-    CAPTURE(std::string(mode));
+  check_every_mode(moved, [&](const core::Image& image) {
     CHECK(differing_fraction(image, round_trip) <= 0.001);
     CHECK(differing_fraction(image, reference) <= std::max(kMovedBound, rounding));
-  }
-  CHECK(validate_mismatches(db, grid) == 0);
+  });
   return rounding;
 }
 
