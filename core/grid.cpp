@@ -642,12 +642,12 @@ class AdaptiveBuilder {
     // about 1.5 cells thick), not its whole box's.
     const double cell_area = std::pow(double(sub.cell_size[0]) * sub.cell_size[1] * sub.cell_size[2], 2.0 / 3.0);
     // A sub-cell lists at most kSubGridGain of the cell's primitives, and a
-    // ray crossing the sub-grid (about cbrt(m) cells) meets at most the n
-    // references it would meet in the leaf.
+    // ray crossing the sub-grid (about cbrt(m) cells) meets at most
+    // sub_grid_walk_share of the n references it would meet in the leaf.
     const double cbrt_m = std::cbrt(m);
     const auto pays = [&](double refs) {
       const double r = refs / m;
-      return r <= kSubGridGain * n && cbrt_m * r <= n;
+      return r <= kSubGridGain * n && cbrt_m * r <= params_.sub_grid_walk_share * n;
     };
     double refs = 0;
     std::size_t i = 0;

@@ -62,10 +62,14 @@
 // back; 32 made Tetra9 1.5-2x slower), at least two sub-cells, and
 // r <= kSubGridGain * n (the sub-grid separates the primitives;
 // overlapping large primitives stay in one leaf, so references cannot
-// multiply level by level), and k * r <= n with k = cbrt(m) (a ray meets no
-// more references in the sub-grid than in the leaf; without it, shells:5's
-// overlapping spheres grew 5,761 primitives into 2.45 M references in 45
-// sub-grids, 1.34 M in 14 now, at 0.95-1.0x the rays/s). The defaults
+// multiply level by level), and k * r <= sub_grid_walk_share * n with
+// k = cbrt(m) (a ray meets under a third of the leaf's references in the
+// sub-grid: each it meets costs a test or a mailbox lookup, and each of its
+// k sub-cells a step, so a sub-grid that only halves them is not won back;
+// without the bound, shells:5's overlapping spheres grew 5,761 primitives
+// into 2.45 M references in 45 sub-grids; bounded by n, into 1.19 M in 5,
+// at k * r = 0.37-0.98 n and the uniform grid's rays/s; every refined cell
+// of the other scenes of the accel corpus is at or below 0.22 n). The defaults
 // were chosen with `raynode bench accel` (docs/architecture.md, "Scenes",
 // Grid): a coarser top grid (lambda_top 1/16, n_min 8, Kalojanov's shape)
 // won a little more on a mesh in a stadium but cost 2-3x on the paper's
@@ -116,6 +120,11 @@ struct GridParams {
   std::uint32_t sub_grid_min = 128;
   /// Adaptive only: the deepest sub-grid level (the top grid is level 0).
   int max_depth = 2;
+  /// Adaptive only: a cell gets a sub-grid only if the references a ray
+  /// meets crossing it, cbrt(sub-cells) * references per sub-cell, are at
+  /// most this fraction of the cell's primitives (cost model above; 1
+  /// refines wherever a ray meets no more than in the leaf).
+  double sub_grid_walk_share = 0.3;
 };
 
 /// Adaptive: the most cells of a sub-grid per axis.

@@ -32,11 +32,13 @@ GridParams adaptive() {
 }
 
 // The adaptive grid with a coarse top grid and sub-grids from 4 primitives
-// on: small scenes then get sub-grids two levels deep.
+// on, wherever a ray meets no more references in them than in the leaf:
+// small scenes then get sub-grids two levels deep.
 GridParams adaptive_deep() {
   GridParams p = adaptive();
   p.top_density = 1.0f / 16.0f;
   p.sub_grid_min = 4;
+  p.sub_grid_walk_share = 1.0;
   return p;
 }
 
@@ -483,4 +485,24 @@ TEST_CASE("adaptive grid: a build that refines no cell keeps only its top grid, 
   CHECK(a.empty_distance == u.empty_distance);
   // A deep build of the same scene does refine.
   CHECK(build_grid(db, adaptive_deep()).sub_grid_count() > 0);
+}
+
+TEST_CASE("adaptive grid: cells crowded by large overlapping spheres stay leaves, a crowded mesh cell is refined") {
+  // SPD shells nests spheres around spheres: a ray crossing a sub-grid of
+  // one of its crowded cells would meet most of the spheres the leaf lists
+  // (each crosses most sub-cells), so the cost model's walk bound
+  // (GridParams::sub_grid_walk_share) keeps the leaf. (Bounded by the leaf's count alone,
+  // shells:4 got 4 sub-grids and 3.2x the references.)
+  const Database db = make_database(load_scene({"shells:4", 0}));
+  const Grid grid = build_grid(db, adaptive());
+  CHECK(grid.sub_grid_count() == 0);
+  // Some cell is crowded enough to be considered (its list is long).
+  std::uint32_t longest = 0;
+  for (std::uint32_t c = 0; c < grid.leaf_cells(); ++c)
+    longest = std::max(longest, grid.cell_start[c + 1] - grid.cell_start[c]);
+  CHECK(longest >= adaptive().sub_grid_min);
+  // 600 small triangles in one cell: refined.
+  GridParams p = adaptive();
+  p.resolution[0] = p.resolution[1] = p.resolution[2] = 1;
+  CHECK(build_grid(make_database(random_scene(21, 600, 0, 0, 0.05f)), p).sub_grid_count() >= 1);
 }

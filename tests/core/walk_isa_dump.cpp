@@ -98,6 +98,7 @@ int main() {
   GridParams deep = adaptive_grid;  // sub-grids two levels deep on small scenes
   deep.top_density = 1.0f / 16.0f;
   deep.sub_grid_min = 4;
+  deep.sub_grid_walk_share = 1.0;
 
   const Database teapot = make_database(load_scene({"teapot:3", 0}));
   const Database rings = make_database(load_scene({"rings:2", 0}));

@@ -167,6 +167,7 @@ TEST_CASE("region: every leaf of an adaptive grid is binned inside its own box's
   gp.kind = core::GridKind::kAdaptive;
   gp.top_density = 1.0f / 16.0f;
   gp.sub_grid_min = 4;
+  gp.sub_grid_walk_share = 1.0;
   const core::Grid grid = core::build_grid(db, gp);
   REQUIRE(grid.sub_grid_count() > 0);
   REQUIRE(grid.depth() >= 2);
@@ -227,6 +228,7 @@ TEST_CASE("region: the estimate over an adaptive grid traces the uniform grid's 
   core::GridParams gp;
   gp.kind = core::GridKind::kAdaptive;
   gp.sub_grid_min = 8;
+  gp.sub_grid_walk_share = 1.0;
   const core::Grid adaptive = core::build_grid(db, gp);
   REQUIRE(adaptive.sub_grid_count() > 0);
   const core::Grid uniform = core::build_grid(db);

@@ -299,6 +299,7 @@ TEST_CASE("paged database: an adaptive grid pages the top directory, the sub-gri
   gp.kind = core::GridKind::kAdaptive;
   gp.top_density = 1.0f / 16.0f;
   gp.sub_grid_min = 4;
+  gp.sub_grid_walk_share = 1.0;
   for (auto [name, size] : {std::pair{"teapot", 2}, std::pair{"tetra", 3}})
     for (const DirectoryOrder order : {DirectoryOrder::kLinear, DirectoryOrder::kBricked})
       for (std::uint32_t ps : {64u, 256u, 4096u}) {

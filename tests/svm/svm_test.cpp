@@ -447,6 +447,7 @@ TEST_CASE("svm over an adaptive grid: paged sub-grids give the sequential image 
   deep.kind = core::GridKind::kAdaptive;
   deep.top_density = 1.0f / 16.0f;
   deep.sub_grid_min = 4;
+  deep.sub_grid_walk_share = 1.0;
   core::GridParams normal;
   normal.kind = core::GridKind::kAdaptive;
   std::vector<std::pair<testing::BuiltScene, core::GridParams>> scenes;
@@ -501,6 +502,7 @@ TEST_CASE("svm: primitives in cell order give the sequential image and, on a shu
   core::GridParams gp;
   gp.kind = core::GridKind::kAdaptive;
   gp.sub_grid_min = 16;  // sub-grids even on this small mesh
+  gp.sub_grid_walk_share = 1.0;
   b.grid = core::build_grid(b.db, gp);
   REQUIRE(b.grid.sub_grid_count() > 0);
   core::RenderParams rp = small_params(1, 0).render;
