@@ -159,24 +159,31 @@ struct NodeRunSpec : modes::NodeModeParams {
 NodeRunSpec make_node_run_spec(const NodeRunOptions& o);
 
 /// Pixels on a side of the model clock's calibration sample, and the
-/// rounds of it (each times the scene, then teapot:8; the least of each counts).
+/// rounds of it (each times the scene, then teapot:8; the median round's
+/// ratio counts).
 inline constexpr int kCalibrationSample = 128;
 inline constexpr int kCalibrationRounds = 7;
 
 /// The model clock held against this machine on one scene: a sample of it
-/// (the sequential tracer at kCalibrationSample pixels square, the least
-/// thread CPU time of kCalibrationRounds) against the cost model's seconds for the same operation
-/// counts, relative to the same measure on teapot:8, the scene the network's
-/// scale is taken on. A host faster or slower than the model's as a whole
-/// therefore does not count as an error; a scene whose operations cost
-/// this host more or less than the model says, relative to Teapot, does.
+/// (the sequential tracer at kCalibrationSample pixels square, its thread
+/// CPU time) against the cost model's seconds for the same operation
+/// counts, relative to the same measure on teapot:8, the scene the
+/// network's scale is taken on, timed right after it. The ratio is the
+/// median of kCalibrationRounds such pairs, so that a burst of the host's
+/// load during a few samples, or a drift of its speed, does not move it. A
+/// host faster or slower than the model's as a whole therefore does not
+/// count as an error; a scene whose operations cost this host more or less
+/// than the model says, relative to Teapot, does. A scene whose sample
+/// does exactly the reference's operations (teapot:8 itself) has ratio 1
+/// by definition and is not timed against it.
 struct ModelCalibration {
   bool measured = false;            ///< a sample was timed (model clock, --calibrate not off)
-  double cpu_s = 0, model_s = 0;    ///< the scene's sample: CPU seconds and modelled seconds
-  double reference_cpu_s = 0, reference_model_s = 0;  ///< teapot:8's
+  double cpu_s = 0, model_s = 0;    ///< the scene's sample: CPU seconds (the median round's) and modelled seconds
+  double reference_cpu_s = 0, reference_model_s = 0;  ///< teapot:8's, of the same round
   double ratio = 1;                 ///< (cpu_s / model_s) / (reference_cpu_s / reference_model_s)
+  bool same_work = false;           ///< the sample's counts are the reference's: ratio 1, not timed
   bool applied = false;             ///< the unit costs were scaled by `ratio` for this command's runs
-  /// {"sample", "cpu_s", "model_s", "reference", "error" (ratio - 1), "applied", "threshold"}; null if not measured.
+  /// {"sample", "cpu_s", "model_s", "reference", "error" (ratio - 1), "applied", "same_work", "threshold"}; null if not measured.
   nlohmann::json to_json() const;
   /// The line commands print: "model clock: +40% against Teapot on this host, unit costs scaled by it (--calibrate)".
   std::string summary() const;
@@ -190,7 +197,8 @@ inline constexpr double kCalibrateAbove = 0.15;
 /// always; "off": never, and nothing is measured), scales every unit cost
 /// of machine.cost_model by the ratio. The network model (made before,
 /// from the unscaled model) keeps its scale. Call once per scene, before
-/// all the runs compared. Costs 2 x kCalibrationRounds 128x128 sequential renders.
+/// all the runs compared. Costs 2 x (kCalibrationRounds + 1) 128x128 sequential renders
+/// (2 when the scene does the reference's work).
 ModelCalibration calibrate_model_clock(nodes::MachineParams& machine, const core::RenderParams& render,
                                        const core::Database& db, const core::Grid& grid, const std::string& policy);
 

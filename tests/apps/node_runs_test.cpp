@@ -7,8 +7,10 @@
 
 #include <limits>
 
-#include "core/camera.h"
+#include "apps/commands.h"
 #include "control/submap_plan.h"
+#include "core/camera.h"
+#include "core/scene_source.h"
 #include "test_scenes.h"
 
 using namespace raynode;
@@ -108,6 +110,23 @@ TEST_CASE("node runs: calibrate_model_clock measures the model clock on the scen
   const apps::ModelCalibration automatic = apps::calibrate_model_clock(a, rp, b.db, b.grid, "auto");
   REQUIRE(automatic.measured);
   CHECK(automatic.applied == (std::abs(automatic.ratio - 1) > apps::kCalibrateAbove));
+  CHECK_FALSE(on.same_work);
+  // The reference scene itself, loaded as the commands load it: its own
+  // work, ratio exactly 1, not timed against itself (a ratio there would be
+  // the host's noise alone).
+  testing::BuiltScene teapot;
+  teapot.db = core::make_database(core::load_scene(apps::tracing_source("teapot:8")));
+  teapot.grid = core::build_grid(teapot.db);
+  nodes::MachineParams t;
+  t.clock = nodes::ComputeClock::kModel;
+  const apps::ModelCalibration self = apps::calibrate_model_clock(t, rp, teapot.db, teapot.grid, "auto");
+  REQUIRE(self.measured);
+  CHECK(self.same_work);
+  CHECK(self.ratio == 1.0);
+  CHECK_FALSE(self.applied);
+  CHECK(self.model_s == self.reference_model_s);
+  CHECK(t.cost_model.unit_s == before.unit_s);
+  CHECK(self.to_json()["same_work"] == true);
   // The CPU clock needs none.
   nodes::MachineParams cpu;
   cpu.clock = nodes::ComputeClock::kCpu;
