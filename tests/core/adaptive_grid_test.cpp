@@ -20,6 +20,7 @@
 #include "core/traverse.h"
 #include "core/validate.h"
 #include "grid_test_support.h"
+#include "test_grid_params.h"
 
 namespace {
 using namespace raynode::core;
@@ -34,13 +35,7 @@ GridParams adaptive() {
 // The adaptive grid with a coarse top grid and sub-grids from 4 primitives
 // on, wherever a ray meets no more references in them than in the leaf:
 // small scenes then get sub-grids two levels deep.
-GridParams adaptive_deep() {
-  GridParams p = adaptive();
-  p.top_density = 1.0f / 16.0f;
-  p.sub_grid_min = 4;
-  p.sub_grid_walk_share = 1.0;
-  return p;
-}
+GridParams adaptive_deep() { return raynode::testing::small_scene_sub_grids(4, true); }
 
 // A small random mesh around the origin (size ~2) on a square floor of
 // half-width `floor` at z = -1.5.

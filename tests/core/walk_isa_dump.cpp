@@ -26,6 +26,7 @@
 #include "core/scene_source.h"
 #include "core/traverse.h"
 #include "random_scene.h"
+#include "test_grid_params.h"
 
 using namespace raynode::core;
 
@@ -95,10 +96,7 @@ int main() {
   uniform_grid.kind = GridKind::kUniform;
   GridParams adaptive_grid;
   adaptive_grid.kind = GridKind::kAdaptive;
-  GridParams deep = adaptive_grid;  // sub-grids two levels deep on small scenes
-  deep.top_density = 1.0f / 16.0f;
-  deep.sub_grid_min = 4;
-  deep.sub_grid_walk_share = 1.0;
+  const GridParams deep = raynode::testing::small_scene_sub_grids(4, true);  // sub-grids two levels deep on small scenes
 
   const Database teapot = make_database(load_scene({"teapot:3", 0}));
   const Database rings = make_database(load_scene({"rings:2", 0}));

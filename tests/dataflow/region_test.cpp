@@ -14,6 +14,7 @@
 #include "dataflow/estimate.h"
 #include "dataflow/region.h"
 #include "dataflow/region_view.h"
+#include "test_grid_params.h"
 
 using namespace raynode;
 using namespace raynode::dataflow;
@@ -163,12 +164,7 @@ TEST_CASE("region: region databases hold every primitive at least once, shared o
 TEST_CASE("region: every leaf of an adaptive grid is binned inside its own box's screen footprint") {
   // A coarse top grid and sub-grids from 4 primitives on: tetra:3 gets sub-grids two levels deep.
   const core::Database db = core::make_database(core::make_spd_scene(core::SpdParams{"tetra", 3, 0}));
-  core::GridParams gp;
-  gp.kind = core::GridKind::kAdaptive;
-  gp.top_density = 1.0f / 16.0f;
-  gp.sub_grid_min = 4;
-  gp.sub_grid_walk_share = 1.0;
-  const core::Grid grid = core::build_grid(db, gp);
+  const core::Grid grid = core::build_grid(db, raynode::testing::small_scene_sub_grids(4, true));
   REQUIRE(grid.sub_grid_count() > 0);
   REQUIRE(grid.depth() >= 2);
   const CameraFrame f = CameraFrame::of(core::render_view(db));
@@ -225,11 +221,7 @@ TEST_CASE("region: the estimate over an adaptive grid traces the uniform grid's 
                               {mc.x + half, mc.y + half, z}, {mc.x - half, mc.y + half, z}};
   s.add_polygon(quad, 4);
   const core::Database db = core::make_database(s);
-  core::GridParams gp;
-  gp.kind = core::GridKind::kAdaptive;
-  gp.sub_grid_min = 8;
-  gp.sub_grid_walk_share = 1.0;
-  const core::Grid adaptive = core::build_grid(db, gp);
+  const core::Grid adaptive = core::build_grid(db, raynode::testing::small_scene_sub_grids(8, false));
   REQUIRE(adaptive.sub_grid_count() > 0);
   const core::Grid uniform = core::build_grid(db);
   const core::View view = core::render_view(db);

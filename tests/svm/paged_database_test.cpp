@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "svm/paged_database.h"
+#include "test_grid_params.h"
 #include "test_scenes.h"
 
 using namespace raynode;
@@ -295,11 +296,7 @@ TEST_CASE("paged database: a protected host image cannot be read (the reader die
 TEST_CASE("paged database: an adaptive grid pages the top directory, the sub-grids' cells and their records") {
   // A coarse top grid with sub-grids from 4 primitives: two levels below
   // the top even on small scenes.
-  core::GridParams gp;
-  gp.kind = core::GridKind::kAdaptive;
-  gp.top_density = 1.0f / 16.0f;
-  gp.sub_grid_min = 4;
-  gp.sub_grid_walk_share = 1.0;
+  const core::GridParams gp = raynode::testing::small_scene_sub_grids(4, true);
   for (auto [name, size] : {std::pair{"teapot", 2}, std::pair{"tetra", 3}})
     for (const DirectoryOrder order : {DirectoryOrder::kLinear, DirectoryOrder::kBricked})
       for (std::uint32_t ps : {64u, 256u, 4096u}) {

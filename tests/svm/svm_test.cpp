@@ -15,6 +15,7 @@
 
 #include "core/render.h"
 #include "svm/svm.h"
+#include "test_grid_params.h"
 #include "test_scenes.h"
 
 using namespace raynode;
@@ -443,11 +444,7 @@ TEST_CASE("svm over an adaptive grid: paged sub-grids give the sequential image 
   // the top), and the default adaptive grid on a small mesh standing on a
   // floor 300 times its size (sub-grids where the mesh is, the floor
   // beside one of them: core::SubGrid::large_list).
-  core::GridParams deep;
-  deep.kind = core::GridKind::kAdaptive;
-  deep.top_density = 1.0f / 16.0f;
-  deep.sub_grid_min = 4;
-  deep.sub_grid_walk_share = 1.0;
+  const core::GridParams deep = raynode::testing::small_scene_sub_grids(4, true);
   core::GridParams normal;
   normal.kind = core::GridKind::kAdaptive;
   std::vector<std::pair<testing::BuiltScene, core::GridParams>> scenes;
@@ -499,11 +496,7 @@ TEST_CASE("svm over an adaptive grid: paged sub-grids give the sequential image 
 TEST_CASE("svm: primitives in cell order give the sequential image and, on a shuffled mesh, fewer pages per pixel") {
   // File order scatters a cell's triangles over many pages.
   testing::BuiltScene b = shuffled_teapot(7);
-  core::GridParams gp;
-  gp.kind = core::GridKind::kAdaptive;
-  gp.sub_grid_min = 16;  // sub-grids even on this small mesh
-  gp.sub_grid_walk_share = 1.0;
-  b.grid = core::build_grid(b.db, gp);
+  b.grid = core::build_grid(b.db, raynode::testing::small_scene_sub_grids(16, false));  // sub-grids even on this small mesh
   REQUIRE(b.grid.sub_grid_count() > 0);
   core::RenderParams rp = small_params(1, 0).render;
   rp.width = rp.height = 40;
