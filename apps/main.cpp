@@ -2,6 +2,9 @@
 // subcommand, and maps errors to one clear line on stderr and an exit code
 // (see commands.h).
 #include <fmt/core.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 #include <algorithm>
 #include <cstdio>
@@ -94,6 +97,21 @@ std::optional<std::string> unknown_options(const CLI::App& app) {
   return fmt::format("{}: {}", path, line);
 }
 
+/// glibc's allocator returns a freed block of 128 KiB or more to the
+/// operating system at once (mmap/munmap, and a trim of the heap's top),
+/// so the next such block is faulted in again, page by page: a grid build's
+/// per-cell scratch arrays and its copies of the scene's lists paid a fifth
+/// of their time in page faults. Blocks below 64 MiB now come from the heap
+/// and up to 128 MiB of freed memory is kept for reuse (docs/architecture.md,
+/// "Build, install and the run record"). Other C libraries ignore this.
+void keep_freed_memory() {
+#if defined(__GLIBC__)
+  mallopt(M_MMAP_THRESHOLD, 64 << 20);
+  mallopt(M_TRIM_THRESHOLD, 128 << 20);
+  mallopt(M_TOP_PAD, 64 << 20);
+#endif
+}
+
 }  // namespace
 
 static int run_main(int argc, char** argv) {
@@ -159,6 +177,7 @@ static int run_main(int argc, char** argv) {
 }
 
 int main(int argc, char** argv) {
+  keep_freed_memory();
   const int rc = run_main(argc, argv);
   raynode::apps::end_transport_session(rc);  // MPI: finalize, or end the other ranks after a failure
   return rc;
