@@ -56,7 +56,10 @@ void record_command_line(int argc, char** argv) {
 
 nlohmann::json run_json() {
   std::string line;
-  for (const std::string& w : command_words()) line += (line.empty() ? "" : " ") + shell_quoted(w);
+  for (const std::string& w : command_words()) {
+    if (!line.empty()) line += ' ';
+    line += shell_quoted(w);
+  }
   nlohmann::json host = {{"cpu", cpu_model()}, {"logical_cpus", std::thread::hardware_concurrency()}};
   utsname u{};
   if (::uname(&u) == 0) {
