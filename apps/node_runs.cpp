@@ -432,10 +432,8 @@ ModelCalibration calibrate_model_clock(nodes::MachineParams& machine, const core
   ModelCalibration c;
   if (machine.clock != nodes::ComputeClock::kModel || policy == "off") return c;
   // The reference: the scene the network's scale is measured on (nodes::
-  // model_seconds_per_ray), so that the model's seconds stay Teapot's. The
-  // two are timed in turn, the least of each kept, so that a change of the
-  // host's load touches both.
-  // Loaded as the commands load a scene (rendering space), so that teapot:8
+  // model_seconds_per_ray), so that the model's seconds stay Teapot's;
+  // loaded as the commands load a scene (rendering space), so that teapot:8
   // given as the scene does exactly the reference's work.
   const core::Scene teapot = core::load_scene(tracing_source("teapot:8"));
   const core::Database tdb = core::make_database(teapot);
