@@ -54,6 +54,8 @@ MachineState::MachineState(const MachineParams& p)
     const std::size_t pairs = std::size_t(p.nodes + 1) * p.nodes;
     ray_credits.reset(new std::atomic<std::int32_t>[pairs]);
     for (std::size_t i = 0; i < pairs; ++i) ray_credits[i].store(ray_window, std::memory_order_relaxed);
+    credits_received.reset(new std::atomic<std::uint64_t>[p.nodes + 1]);
+    for (std::uint32_t i = 0; i <= p.nodes; ++i) credits_received[i].store(0, std::memory_order_relaxed);
   }
 }
 
@@ -257,14 +259,29 @@ RunReport make_run_report(MachineState& state, const MachineParams& params, cons
   report.work_requests = work_request_route_name(params.work_request_route);
   report.work_grants = work_grant_name(params.work_grant);
   report.nodes.resize(n);
+  // A participant's ray credits received, as kControl messages (MachineState::credits_received).
+  auto add_credits = [&](NodeReport& r, std::uint32_t slot) {
+    if (!state.credits_received) return;
+    const std::uint64_t k = state.credits_received[slot].load(std::memory_order_relaxed);
+    MessageCounts& c = r.counters.received[std::size_t(MessageType::kControl)];
+    c.messages += k;
+    c.bytes += k * sizeof(std::int32_t);
+  };
   for (NodeId i = 0; i < n; ++i) {
-    if (state.nodes[i]) report.nodes[i] = make_report(*state.nodes[i], final_clock[i], wall[i]);
-    else report.nodes[i].id = i;
+    if (state.nodes[i]) {
+      report.nodes[i] = make_report(*state.nodes[i], final_clock[i], wall[i]);
+      add_credits(report.nodes[i], i);
+    } else {
+      report.nodes[i].id = i;
+    }
   }
   if (params.transport) gather_per_node(*params.transport, report.nodes);
   for (const NodeReport& nr : report.nodes)
     report.parallel_time_s = std::max(report.parallel_time_s, nr.work_done_s >= 0 ? nr.work_done_s : nr.clock_s);
-  if (state.host) report.host = make_report(*state.host, final_clock[n], wall[n]);
+  if (state.host) {
+    report.host = make_report(*state.host, final_clock[n], wall[n]);
+    add_credits(report.host, n);
+  }
   report.compute_grants = state.scheduler->compute_grants();
   report.handoffs = state.scheduler->handoffs();
   report.service_grants = state.scheduler->service_grants();
@@ -340,6 +357,7 @@ RunReport Machine::run(const Main& node_main, const Main& host_main, const Main&
         std::int32_t count;
         std::memcpy(&count, payload.data(), sizeof count);
         state.ray_credit(dest, h.source).fetch_add(count, std::memory_order_release);
+        state.credits_received[dest == kHost ? state.params.nodes : dest].fetch_add(1, std::memory_order_relaxed);
         state.progress.fetch_add(1, std::memory_order_relaxed);
         return;
       }

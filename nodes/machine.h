@@ -162,6 +162,11 @@ class MachineState {
   /// as it takes them (NodeContext::take). Empty without a transport.
   std::unique_ptr<std::atomic<std::int32_t>[]> ray_credits;
   std::int32_t ray_window = 0;  ///< max(1, mailbox slots / nodes): the senders share a mailbox
+  /// Credit messages each participant (the nodes, then the host) has
+  /// received. The receiving process's delivery books a credit, which no
+  /// participant takes from its mailbox, so the run's report adds these to
+  /// the participant's received kControl counts. Empty without a transport.
+  std::unique_ptr<std::atomic<std::uint64_t>[]> credits_received;
   /// The credits `from` (a node or the host) holds for sending rays to node `to`.
   std::atomic<std::int32_t>& ray_credit(NodeId from, NodeId to) {
     return ray_credits[std::size_t(from == kHost ? params.nodes : from) * params.nodes + to];

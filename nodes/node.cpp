@@ -448,6 +448,9 @@ void NodeContext::return_ray_credit(NodeId source) {
   h.wire_bytes = sizeof(std::int32_t);
   const std::span<const std::byte> parts[1] = {std::as_bytes(std::span(&taken, 1))};
   transport_->send(source, h, parts, machine_->params.nodes);
+  MessageCounts& c = counters_.sent[std::size_t(MessageType::kControl)];
+  ++c.messages;
+  c.bytes += h.wire_bytes;
   taken = 0;
 }
 

@@ -277,11 +277,13 @@ TEST_CASE("transport: a ray to another process's node is refused once its share 
   for (std::uint32_t p = 0; p < 2; ++p) transports.push_back(std::make_unique<LoopbackTransport>(hub, p));
   std::vector<std::uint32_t> reported;
   std::vector<std::thread> processes;
+  RunReport first;  // process 0's report: every node's counters, gathered
   for (std::uint32_t p = 0; p < 2; ++p)
     processes.emplace_back([&, p] {
       MachineParams mp = base;
       mp.transport = transports[p].get();
-      Machine(mp).run(node, [&](NodeContext& host) { gathering_host(host, reported); });
+      RunReport r = Machine(mp).run(node, [&](NodeContext& host) { gathering_host(host, reported); });
+      if (p == 0) first = std::move(r);
     });
   for (std::thread& t : processes) t.join();
   CHECK(before_refusal == 4);  // the window, while node 1 took nothing
@@ -289,4 +291,11 @@ TEST_CASE("transport: a ray to another process's node is refused once its share 
   std::vector<std::uint32_t> expected(kRays);
   for (std::uint32_t i = 0; i < kRays; ++i) expected[i] = i;
   CHECK(order == expected);  // every ray arrived once, in order, once credits came back
+  // Credits go back two at a time (half the window): ten control messages,
+  // counted as sent by node 1 and as received by node 0.
+  const auto control = std::size_t(MessageType::kControl);
+  REQUIRE(first.nodes.size() == 2);
+  CHECK(first.nodes[1].counters.sent[control].messages == kRays / 2);
+  CHECK(first.nodes[0].counters.received[control].messages == kRays / 2);
+  CHECK(first.nodes[0].counters.received[control].bytes == kRays / 2 * sizeof(std::int32_t));
 }
