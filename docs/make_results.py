@@ -896,13 +896,10 @@ def section_robust_cost(src):
 def section_robust_checks(src):
     """The robust triangle finish's own cost: today's tracer against a build of it without those checks."""
     name = "robust-checks-ab-2core.csv"
-    pairs = ab_pairs(name)
-    body = []
-    for scene, old, new, ro, rn, paired in pairs:
-        rounds = {r["round"]: r for r in old}
-        ratios = [float(r["grid_over_embree_time"]) / float(rounds[r["round"]]["grid_over_embree_time"])
-                  for r in new if r["round"] in rounds]
-        body.append([scene, f"{ro:.2f}", f"{rn:.2f}", f"{median(ratios):.3f}", f"{paired:.2f}"])
+    ratio = {scene: paired_median(new, old, lambda r: float(r["grid_over_embree_time"]))
+             for scene, old, new in ab_rounds(name)}
+    body = [[scene, f"{ro:.2f}", f"{rn:.2f}", f"{ratio[scene]:.3f}", f"{paired:.2f}"]
+            for scene, _, _, ro, rn, paired in ab_pairs(name)]
     over = [b[0] for b in body if float(b[3]) > 1.03]
     return "\n".join([
         "The robust tests' own cost, without the other changes: this tracer against a build of the same source "
