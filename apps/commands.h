@@ -81,8 +81,8 @@ void add_grid_option(CLI::App& cmd, GridChoice& choice);
 core::GridKind grid_kind_for(const GridChoice& choice);
 
 /// The grid's description for JSON outputs (stats, scene info, bench):
-/// kind, top resolution, cells, leaf cells, sub-grids, depth, references,
-/// empty leaf cells, bytes.
+/// kind, top resolution, large primitives beside the top grid, cells, leaf
+/// cells, sub-grids, depth, references, empty leaf cells, bytes.
 nlohmann::json grid_json(const core::Grid& grid);
 /// One level of a grid's hierarchy (0: the top grid; a uniform grid has
 /// only that): its grids, their cells, the cells that are leaves (hold no
@@ -92,8 +92,12 @@ struct GridLevel {
 };
 /// Per level, as GridLevel (size: depth() + 1).
 std::vector<GridLevel> grid_levels(const core::Grid& grid);
+/// The scene's large primitives listed beside an adaptive grid's top grid
+/// (core/grid.h; 0 for a uniform grid or when there are none).
+std::uint32_t top_large_primitives(const core::Grid& grid);
 /// One line: "adaptive 24x24x24 top grid, 1234 sub-grids (depth 2), 98765
-/// leaf cells, 123456 references" or "uniform 64x64x64, 123456 references".
+/// leaf cells, 123456 references" (with " beside 2 large primitives" after
+/// "top grid" when there are some) or "uniform 64x64x64, 123456 references".
 std::string grid_summary(const core::Grid& grid);
 
 /// Adds --json [FILE] to a subcommand, the one convention of every command

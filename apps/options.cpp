@@ -161,6 +161,11 @@ std::vector<GridLevel> grid_levels(const core::Grid& grid) {
   return levels;
 }
 
+std::uint32_t top_large_primitives(const core::Grid& grid) {
+  const std::uint32_t leaf = core::SubGridTables{grid.sub_grids, grid.cell_entries}.top_large_leaf();
+  return leaf == core::kNoLeaf ? 0 : grid.cell_start[leaf + 1] - grid.cell_start[leaf];
+}
+
 nlohmann::json grid_json(const core::Grid& grid) {
   nlohmann::json levels = nlohmann::json::array();
   for (const GridLevel& l : grid_levels(grid))
@@ -171,6 +176,7 @@ nlohmann::json grid_json(const core::Grid& grid) {
                       {"references", l.references}});
   return {{"kind", core::grid_kind_name(grid.kind())},
           {"resolution", {grid.info.res[0], grid.info.res[1], grid.info.res[2]}},
+          {"large_primitives", top_large_primitives(grid)},
           {"cells", grid.info.cell_count()},
           {"leaf_cells", grid.leaf_cells()},
           {"sub_grids", grid.sub_grid_count()},
@@ -185,8 +191,10 @@ std::string grid_summary(const core::Grid& grid) {
   const auto& r = grid.info.res;
   if (grid.kind() == core::GridKind::kUniform)
     return fmt::format("uniform {}x{}x{}, {} references", r[0], r[1], r[2], grid.references());
-  return fmt::format("adaptive {}x{}x{} top grid, {} sub-grids (depth {}), {} leaf cells, {} references", r[0], r[1],
-                     r[2], grid.sub_grid_count(), grid.depth(), grid.leaf_cells(), grid.references());
+  const std::uint32_t large = top_large_primitives(grid);
+  return fmt::format("adaptive {}x{}x{} top grid{}, {} sub-grids (depth {}), {} leaf cells, {} references", r[0], r[1],
+                     r[2], large ? fmt::format(" beside {} large primitive{}", large, large == 1 ? "" : "s") : "",
+                     grid.sub_grid_count(), grid.depth(), grid.leaf_cells(), grid.references());
 }
 
 void add_pack_cells_option(CLI::App& cmd, std::uint32_t& pack_min) {

@@ -431,8 +431,9 @@ Grid build_uniform_grid(const Database& db, const GridParams& params) {
 
 }  // namespace
 
-Bounds3 grid_bounds(const Database& db) {
-  Bounds3 b = db.bounds;
+Bounds3 grid_bounds(const Database& db) { return pad_box(db.bounds); }
+
+Bounds3 pad_box(Bounds3 b) {
   if (b.empty()) b = Bounds3{{-1, -1, -1}, {1, 1, 1}};
   // Pad: a flat scene still gets a cell of some thickness, and primitives on
   // the boundary lie strictly inside.
@@ -551,7 +552,7 @@ class AdaptiveBuilder {
       bool refine = false;
       if (level < std::uint32_t(params_.max_depth) && e - b >= params_.sub_grid_min) {
         Child child{c, {}, {}, {}};
-        split_large(info, c, list, child.small, child.large);
+        split_large(cell_box(info, c), list, kLargeShare * double(list.size()), child.small, child.large);
         refine = make_sub_grid(info, c, child.small, child.info);
         if (!refine && !child.large.empty()) {  // the split did not pay: all in the sub-grid, if that does
           child.small.assign(list.begin(), list.end());
@@ -580,14 +581,14 @@ class AdaptiveBuilder {
   }
 
  private:
-  // Splits cell c's `list` into the primitives large in the cell (header:
-  // kLargeSpan) and the others, when the large ones are few (kLargeShare)
-  // and the others' box is at most half the cell's on some axis; else
-  // every primitive is small. Both keep list order.
-  void split_large(const GridInfo& info, std::uint32_t c, std::span<const std::uint32_t> list,
+ public:
+  // Splits `list`, the primitives of box `cell`, into those large in it
+  // (header: kLargeSpan) and the others, when the large ones are at most
+  // `max_large` and the others' box is at most half the cell's on some
+  // axis; else every primitive is small. Both keep list order.
+  void split_large(const Bounds3& cell, std::span<const std::uint32_t> list, double max_large,
                    std::vector<std::uint32_t>& small, std::vector<std::uint32_t>& large) const {
     large.clear();
-    const Bounds3 cell = cell_box(info, c);
     const Vec3 ce = cell.extent();
     std::vector<std::uint32_t> others;
     Bounds3 small_box;
@@ -610,7 +611,7 @@ class AdaptiveBuilder {
     for (int a = 0; a < 3; ++a)
       gains |= double(std::min(small_box.upper[a], cell.upper[a])) - std::max(small_box.lower[a], cell.lower[a]) <=
                0.5 * double(ce[a]);
-    if (large.empty() || others.empty() || double(large.size()) > kLargeShare * double(list.size()) || !gains) {
+    if (large.empty() || others.empty() || double(large.size()) > max_large || !gains) {
       large.clear();
       small.assign(list.begin(), list.end());
     } else {
@@ -618,6 +619,7 @@ class AdaptiveBuilder {
     }
   }
 
+ private:
   // The box of cell c of `info`.
   static Bounds3 cell_box(const GridInfo& info, std::uint32_t c) {
     const int x = int(c % std::uint32_t(info.res[0]));
@@ -715,20 +717,33 @@ Grid build_adaptive_grid(const Database& db, const GridParams& params) {
   Grid grid;
   GridInfo top;
   top.bounds = grid_bounds(db);
+  std::vector<std::uint32_t> all(db.primitives.size()), small, large;
+  for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
+  AdaptiveBuilder builder(db, params, grid);
   if (params.resolution[0] > 0 && params.resolution[1] > 0 && params.resolution[2] > 0) {
     for (int a = 0; a < 3; ++a) top.res[a] = std::min(params.resolution[a], params.max_resolution);
   } else {
-    choose_adaptive_resolution(top.bounds, double(params.top_density) * double(db.primitives.size()),
+    // The scene's few large primitives (a floor, a wall) beside the top
+    // grid, which then covers only the others' box (header comment).
+    if (params.large_beside_top)
+      builder.split_large(top.bounds, all, std::min(double(kMaxTopLarge), kLargeShare * double(all.size())), small,
+                          large);
+    if (!large.empty()) {
+      Bounds3 reach;
+      for (const std::uint32_t id : small) reach.extend(db.primitives[id].bounds());
+      const Bounds3 padded = pad_box(reach);
+      top.bounds = Bounds3{max(top.bounds.lower, padded.lower), min(top.bounds.upper, padded.upper)};
+    }
+    choose_adaptive_resolution(top.bounds, double(params.top_density) * double(large.empty() ? all.size() : small.size()),
                                params.max_resolution, top.res);
   }
   set_cell_size(top);
   grid.info = top;
   grid.cell_start.push_back(0);
-  std::vector<std::uint32_t> all(db.primitives.size());
-  for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
-  AdaptiveBuilder(db, params, grid).build(top, all, 0);
+  builder.build(top, large.empty() ? std::span<const std::uint32_t>(all) : std::span<const std::uint32_t>(small), 0,
+                large);
   grid.built_as = GridKind::kAdaptive;
-  if (grid.sub_grids.size() == 1) {  // nothing refined: the top grid alone, walked without the tables
+  if (grid.sub_grids.size() == 1 && large.empty()) {  // nothing refined: the top grid alone, walked without the tables
     grid.sub_grids = {};
     grid.cell_entries = {};
   }

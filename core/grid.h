@@ -42,7 +42,14 @@
 // kLargeShare) are kept out of the sub-grid, in a leaf of their own that
 // the walk tests before the sub-grid (SubGrid::large_list), when the
 // others' box is then at most half the cell's on some axis; C_sub below
-// gains their count, tested once per ray (mailbox). Cost model, per ray crossing a cell that lists n
+// gains their count, tested once per ray (mailbox). The whole scene is
+// split the same way before the top grid is built: at most kMaxTopLarge
+// primitives large in the scene's box (a floor, the walls of a room),
+// when the others' box is at most half the scene's on some axis, are
+// listed in one leaf beside the top grid, which every ray tests first, and
+// the top grid covers only the others' padded box (pad_box). So a mesh on
+// a stadium floor or in a room gets the top grid's cells over the mesh,
+// and a ray that only meets the floor costs a test and no walk. Cost model, per ray crossing a cell that lists n
 // primitives (times in units of one primitive test):
 //   leaf:      C_leaf = n
 //   sub-grid:  C_sub  ~ C_enter + k * (C_step + r),
@@ -125,6 +132,10 @@ struct GridParams {
   /// most this fraction of the cell's primitives (cost model above; 1
   /// refines wherever a ray meets no more than in the leaf).
   double sub_grid_walk_share = 0.3;
+  /// Adaptive only: list the scene's few large primitives beside the top
+  /// grid, which then covers only the others' box (above); false keeps
+  /// every primitive in the top grid.
+  bool large_beside_top = true;
 };
 
 /// Adaptive: the most cells of a sub-grid per axis.
@@ -173,6 +184,8 @@ struct GridInfo {
 /// sub-grid, which then covers only the others' box, and are listed in one
 /// more leaf, first_entry + info.cell_count(), right after the sub-grid's
 /// cells (large_list). A walk tests that leaf before the sub-grid's cells.
+/// The top grid's large_list lists the scene's large primitives (above),
+/// which its box may not hold.
 struct SubGrid {
   /// bounds: the part of the parent cell its primitives reach (within GridInfo::cell_bounds)
   GridInfo info;
@@ -180,6 +193,9 @@ struct SubGrid {
   std::uint32_t level = 0;        ///< 0 for the top grid, parent's level + 1 below
   bool large_list = false;        ///< leaf first_entry + info.cell_count() lists the parent cell's large primitives
 };
+/// No leaf (SubGridTables::top_large_leaf when the top grid has no large
+/// primitives beside it).
+inline constexpr std::uint32_t kNoLeaf = 0xFFFFFFFFu;
 /// Tag bit of a cell entry naming a sub-grid (else the entry is a leaf cell id).
 inline constexpr std::uint32_t kSubGridEntry = 0x80000000u;
 
@@ -188,6 +204,13 @@ inline constexpr std::uint32_t kSubGridEntry = 0x80000000u;
 struct SubGridTables {
   std::span<const SubGrid> sub_grids;        ///< Grid::sub_grids
   std::span<const std::uint32_t> cell_entries;  ///< Grid::cell_entries
+
+  /// The leaf listing the scene's large primitives beside the top grid
+  /// (the top grid's large_list), or kNoLeaf.
+  std::uint32_t top_large_leaf() const {
+    if (sub_grids.empty() || !sub_grids[0].large_list) return kNoLeaf;
+    return sub_grids[0].first_entry + sub_grids[0].info.cell_count();
+  }
 };
 
 /// What a view's cell visit returns for leaf `cell` whose empty distance
@@ -203,6 +226,9 @@ inline constexpr double kLargeSpan = 0.5;
 /// Adaptive: the large primitives are set beside a sub-grid only when they
 /// are at most this share of the cell's primitives.
 inline constexpr double kLargeShare = 1.0 / 16.0;
+/// Adaptive: the most primitives large in the whole scene that are set
+/// beside the top grid (every ray tests them, so only a few).
+inline constexpr std::size_t kMaxTopLarge = 8;
 
 /// A built grid: GridInfo plus, for leaf cell c, the primitive ids
 /// cell_primitives[cell_start[c] .. cell_start[c+1]), ascending.
@@ -215,7 +241,7 @@ inline constexpr double kLargeShare = 1.0 / 16.0;
 /// the leaf cells, so views read a leaf's list as they read a uniform cell's.
 /// A leaf's empty distance counts cells of its own grid.
 struct Grid {
-  GridInfo info;
+  GridInfo info;  ///< the (top) grid; adaptive: its bounds may hold only the primitives not beside it (SubGrid)
   std::vector<std::uint32_t> cell_start;       ///< cell_count()+1 offsets
   std::vector<std::uint32_t> cell_primitives;  ///< primitive ids into Database::primitives
   /// Per cell: 0 if it lists a primitive, else the Chebyshev distance in
@@ -259,10 +285,14 @@ void choose_grid_resolution(const Bounds3& bounds, std::size_t primitive_count, 
 /// with no references. Deterministic (same input, same lists).
 Grid build_grid(const Database& db, const GridParams& params = {});
 
-/// The padded world box both grid kinds cover: db.bounds (or [-1,1]^3 when
-/// empty) grown by max(1e-4 of its largest extent, 16 ulps of its largest
-/// coordinate) on every side.
+/// The padded world box of the uniform grid and of the adaptive grid's
+/// top grid (unless the scene's large primitives lie beside it: then the
+/// others' box, padded the same way): pad_box(db.bounds).
 Bounds3 grid_bounds(const Database& db);
+
+/// `b` (or [-1,1]^3 when empty) grown by max(1e-4 of its largest extent,
+/// 16 ulps of its largest coordinate) on every side.
+Bounds3 pad_box(Bounds3 b);
 
 
 /// Fills grid.empty_distance from grid.cell_start (see Grid); with

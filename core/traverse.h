@@ -22,6 +22,7 @@
 // and then gets leaf cell ids (walk_cells), or, when its tables are not
 // plain arrays (svm's paged view),
 //   bool has_sub_grids() const;  SubGrid sub_grid(std::uint32_t i) const;
+//   std::uint32_t top_large_leaf() const;  // the scene's large primitives' leaf, or kNoLeaf
 // and then gets the ids the sub-grids' first_entry fields give. Either way
 // its cell visit returns kSubGridCode + i for a top cell holding sub-grid i
 // (grid.h, empty_leaf_code). The other views walk the uniform grid of
@@ -536,12 +537,14 @@ concept has_sub_grids = requires(const View& v) {
 /// are read through the view (svm's PagedView): sub_grid(i) returns a copy
 /// of sub-grid i's record, whose first_entry is the id the view's cell
 /// visit takes for the sub-grid's cell 0 (its cells follow in linear
-/// order), and a cell visit returns kSubGridCode + i for a cell holding
-/// sub-grid i.
+/// order), a cell visit returns kSubGridCode + i for a cell holding
+/// sub-grid i, and top_large_leaf() is the id of the leaf listing the
+/// scene's large primitives beside the top grid (kNoLeaf if none).
 template <class View>
 concept has_paged_sub_grids = requires(const View& v, std::uint32_t i) {
   { v.has_sub_grids() } -> std::convertible_to<bool>;
   { v.sub_grid(i) } -> std::convertible_to<SubGrid>;
+  { v.top_large_leaf() } -> std::convertible_to<std::uint32_t>;
 };
 
 namespace detail {
@@ -594,6 +597,14 @@ template <class View, class Visit>
   return {visit, stopped};
 }
 
+/// The leaf listing the scene's large primitives beside the top grid, or
+/// kNoLeaf.
+template <class View>
+std::uint32_t top_large_leaf(const View& view) {
+  if constexpr (has_sub_grids<View>) return view.sub_grid_tables().top_large_leaf();
+  else return view.top_large_leaf();
+}
+
 /// True when `view` is over an adaptive grid that holds sub-grids.
 template <class View>
 bool holds_sub_grids(const View& view) {
@@ -624,6 +635,9 @@ template <class View, class Visit>
 inline void walk_cells(const View& view, const Ray& ray, Visit& visit) {
   if constexpr (has_sub_grids<View> || has_paged_sub_grids<View>) {
     if (detail::holds_sub_grids(view)) {
+      // The scene's large primitives first, as a sub-grid's (walk_sub_grid).
+      if (const std::uint32_t large = detail::top_large_leaf(view); large != kNoLeaf) [[unlikely]]
+        if (visit(large, -kInfinity) == kStopWalk) return;
       // The top grid's walk is inlined here, so that its leaves are visited
       // with the caller's hit and counters in registers; only a cell holding
       // a sub-grid (its visit returns kSubGridCode + i) calls out. Its

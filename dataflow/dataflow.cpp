@@ -245,7 +245,8 @@ DataflowResult render_dataflow(const core::Database& db, const core::Grid& grid,
   const std::vector<RegionDatabase> regions = make_region_databases(db, partition, params.grid);
 
   // 3. Own primary rays, by the region where they enter the scene.
-  const core::Bounds3 scene_box = grid.info.bounds;
+  // The whole scene's box (an adaptive top grid may cover less: core/grid.h).
+  const core::Bounds3 scene_box = core::grid_bounds(db);
   const bool want_first = rp.any_aov() || params.region_aov;
   const std::uint32_t samples = std::uint32_t(rp.spp * rp.spp) + ((want_first && rp.spp % 2 == 0) ? 1u : 0u);
   const std::vector<std::vector<PrimarySample>> primaries =

@@ -65,13 +65,49 @@ CostGrid uniform_cost(const ScreenRect& extent, int resolution) {
 
 namespace {
 
+/// Adds `work`, the tests of the scene's large primitives beside the top
+/// grid (CostView), to the cost cells in proportion to their other work:
+/// every ray tests them, where its walk charges the rest. When nothing else
+/// was charged, evenly over the cost cells under those primitives' screen
+/// boxes.
+void charge_beside_top(const core::Database& db, const core::Grid& grid, const CameraFrame& frame, double work,
+                       CostGrid& c) {
+  const double others = c.total();
+  if (others > 0) {
+    for (double& v : c.cost) v += work * (v / others);
+    return;
+  }
+  const std::uint32_t leaf = core::SubGridTables{grid.sub_grids, grid.cell_entries}.top_large_leaf();
+  const ScreenRect& e = c.extent;
+  const double sx = c.nx / (double(e.x1) - e.x0), sy = c.ny / (double(e.y1) - e.y0);
+  const auto bin = [](double v, double lo, double scale, int n) {
+    return std::clamp(int(std::floor(std::clamp((v - lo) * scale, -1.0, double(n)))), 0, n - 1);
+  };
+  std::vector<std::uint8_t> under(c.cost.size(), 0);
+  for (std::uint32_t k = grid.cell_start[leaf]; k < grid.cell_start[leaf + 1]; ++k) {
+    const core::Bounds3 b = db.primitives[grid.cell_primitives[k]].bounds();
+    double x0 = core::kInfinity, y0 = core::kInfinity, x1 = -core::kInfinity, y1 = -core::kInfinity;
+    for (int i = 0; i < 8; ++i) {
+      const core::Vec3 p{(i & 1) ? b.upper.x : b.lower.x, (i & 2) ? b.upper.y : b.lower.y, (i & 4) ? b.upper.z : b.lower.z};
+      x0 = std::min(x0, double(frame.x(p))), x1 = std::max(x1, double(frame.x(p)));
+      y0 = std::min(y0, double(frame.y(p))), y1 = std::max(y1, double(frame.y(p)));
+    }
+    for (int by = bin(y0, e.y0, sy, c.ny); by <= bin(y1, e.y0, sy, c.ny); ++by)
+      for (int bx = bin(x0, e.x0, sx, c.nx); bx <= bin(x1, e.x0, sx, c.nx); ++bx) under[std::size_t(by) * c.nx + bx] = 1;
+  }
+  const double cells = double(std::count(under.begin(), under.end(), std::uint8_t(1)));
+  for (std::size_t i = 0; i < under.size(); ++i)
+    if (under[i]) c.cost[i] += work / cells;
+}
+
 /// One pass of estimate_load over the cost grid `c` (its extent and shape
 /// set, costs zeroed).
 void charge(const core::Database& db, const core::Grid& grid, const core::Camera& camera, const CameraFrame& frame,
             const EstimateParams& params, CostGrid& c, LoadEstimate& out) {
   const std::vector<std::uint32_t> bin = cost_bins_of_cells(grid, frame, c);
   const core::DirectView base(db, grid);
-  const CostView view(base, bin.data(), c.cost.data());
+  double beside_top = 0;
+  const CostView view(base, bin.data(), c.cost.data(), &beside_top);
   const core::ShadingContext ctx = core::make_shading_context(db, params.max_depth, params.min_weight, params.shadow_rays);
   core::ShadingScratch scratch;
   const int s = params.subsample, half = s / 2;
@@ -82,6 +118,7 @@ void charge(const core::Database& db, const core::Grid& grid, const core::Camera
       ++out.pixels;
     }
   out.rays = scratch.stats.rays.total();
+  if (beside_top > 0) charge_beside_top(db, grid, frame, beside_top, c);
 }
 
 }  // namespace

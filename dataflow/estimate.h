@@ -12,7 +12,10 @@
 // lands where the work happens — the same place a region's node will do it.
 // With an adaptive host grid the visited cells are leaf cells, each at the
 // centre of its own box (a top cell or a sub-grid's cell); a cell holding a
-// sub-grid is never visited itself, its leaves are.
+// sub-grid is never visited itself, its leaves are. The leaf of the scene's
+// large primitives beside the top grid (a floor; every ray tests it, and
+// each region tests its own copy) has no place of its own: its work is
+// added to the cost cells in proportion to their other work.
 // The work is counted by a view wrapper (CostView) around the host's
 // DirectView, through the database-view concept of core/traverse.h: the
 // tracer itself is unchanged.
@@ -39,16 +42,26 @@ namespace raynode::dataflow {
 class CostView {
  public:
   /// `bin_of_cell[c]` = cost-grid index of leaf cell c (cost_bins_of_cells);
-  /// `cost` the grid's cells.
-  CostView(const core::DirectView& base, const std::uint32_t* bin_of_cell, double* cost)
-      : base_(base), bin_of_cell_(bin_of_cell), cost_(cost) {}
+  /// `cost` the grid's cells; `beside_top` sums the work of the leaf of
+  /// the scene's large primitives beside an adaptive top grid (core/grid.h),
+  /// which estimate_load adds in proportion to the other cells' work.
+  CostView(const core::DirectView& base, const std::uint32_t* bin_of_cell, double* cost, double* beside_top)
+      : base_(base),
+        bin_of_cell_(bin_of_cell),
+        cost_(cost),
+        beside_top_(beside_top),
+        large_leaf_(base.sub_grid_tables().top_large_leaf()) {}
   const core::GridInfo& grid_info() const { return base_.grid_info(); }
   /// The base's sub-grid tables: an adaptive grid is walked leaf by leaf.
   core::SubGridTables sub_grid_tables() const { return base_.sub_grid_tables(); }
   template <class F>
   std::uint32_t for_each_in_cell(std::uint32_t cell, F&& f) const {
     const auto& a = base_.arrays();
-    cost_[bin_of_cell_[cell]] += 1.0 + double(a.cell_start[cell + 1] - a.cell_start[cell]);
+    const double work = 1.0 + double(a.cell_start[cell + 1] - a.cell_start[cell]);
+    if (cell == large_leaf_) [[unlikely]]
+      *beside_top_ += work;
+    else
+      cost_[bin_of_cell_[cell]] += work;
     return base_.for_each_in_cell(cell, f);
   }
   const core::Primitive& primitive(std::uint32_t id) const { return base_.primitive(id); }
@@ -59,6 +72,8 @@ class CostView {
   const core::DirectView& base_;
   const std::uint32_t* bin_of_cell_;
   double* cost_;
+  double* beside_top_;
+  std::uint32_t large_leaf_;  // core::kNoLeaf when there is none
 };
 
 /// Options of the estimate.

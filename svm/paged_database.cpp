@@ -162,7 +162,7 @@ std::vector<std::uint32_t> primitive_slots(const PageLayout& l, const core::Grid
 std::vector<double> leaf_weights(const core::Grid& grid) {
   const auto half_area = [](const core::Vec3& e) { return double(e.x) * e.y + double(e.y) * e.z + double(e.z) * e.x; };
   std::vector<double> w(grid.leaf_cells(), half_area(grid.info.cell_size));
-  for (std::size_t i = 1; i < grid.sub_grids.size(); ++i) {
+  for (std::size_t i = 0; i < grid.sub_grids.size(); ++i) {
     const core::SubGrid& s = grid.sub_grids[i];
     std::fill_n(w.begin() + s.first_entry, s.info.cell_count(), half_area(s.info.cell_size));
     if (s.large_list) w[s.first_entry + s.info.cell_count()] = half_area(s.info.bounds.extent());
@@ -264,6 +264,8 @@ PageLayout make_page_layout(const core::Database& db, const core::Grid& grid, st
   if (keys > 0x7fffffffull)
     throw std::length_error(fmt::format("svm: a directory of {} entries does not fit 31-bit keys", keys));
   l.top_keys = std::uint32_t(top_keys);
+  // The scene's large primitives beside the top grid: the leaf after its cells.
+  if (!grid.sub_grids.empty() && grid.sub_grids[0].large_list) l.top_large_key = l.entry_key(grid.info, l.top_cells);
   const std::uint64_t dir_pages = (keys + (1u << l.directory_shift) - 1) >> l.directory_shift;
   const std::uint64_t sub_grid_pages = pages_for(std::uint64_t(l.sub_grids) * sizeof(PagedSubGrid), page_size);
   const std::uint64_t list_pages = pages_for(list_bytes, page_size);

@@ -184,6 +184,10 @@ struct PageLayout {
   /// sub-grid cell's entry e (>= top_cells) has key top_keys + e - top_cells.
   std::uint32_t top_keys = 0;
   std::uint32_t sub_grids = 0;  ///< PagedSubGrid records (0: a uniform grid)
+  /// The directory key of the leaf listing the scene's large primitives
+  /// beside the top grid (core::SubGrid::large_list of the top grid), or
+  /// core::kNoLeaf.
+  std::uint32_t top_large_key = core::kNoLeaf;
   std::uint32_t listed_cells = 0;  ///< unpacked cells with a list (two primitives or more)
   std::uint32_t single_cells = 0;  ///< cells whose one primitive is in the directory entry
   std::uint32_t list_ids = 0;      ///< primitive ids in the lists segment

@@ -62,6 +62,9 @@ class PagedView {
   const core::GridInfo& grid_info() const { return grid_; }
   /// True for an adaptive grid's layout (sub-grid records are paged).
   bool has_sub_grids() const { return layout_.sub_grids > 0; }
+  /// The directory key of the leaf listing the scene's large primitives
+  /// beside the top grid, or core::kNoLeaf (replicated: no page access).
+  std::uint32_t top_large_leaf() const { return layout_.top_large_key; }
   /// A copy of sub-grid record i (< layout's sub_grids): its grid and the
   /// directory key of its cell 0 as first_entry. One page access.
   core::SubGrid sub_grid(std::uint32_t i) const {

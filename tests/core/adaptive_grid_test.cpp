@@ -128,17 +128,38 @@ TEST_CASE("adaptive grid: a small mesh on a floor 300x its size agrees with brut
   // (Embree's float test on a triangle 600 units wide errs by ~1e-5 units
   // in t: the origins stay 0.5 above the floor, so t stays within 1e-4.)
   const Built b(mesh_on_floor(11, 600, 300.0f), adaptive());
-  // The mesh's region is refined below the top grid, on all three axes.
-  CHECK(b.grid.depth() >= 1);
-  bool deep_in_z = false;
-  for (const SubGrid& s : b.grid.sub_grids) deep_in_z |= s.level > 0 && s.info.res[2] > 1;
-  CHECK(deep_in_z);
+  // The floor (the last primitives) lies beside the top grid, which covers
+  // the mesh's box alone, divided on all three axes.
+  const std::uint32_t large = SubGridTables{b.grid.sub_grids, b.grid.cell_entries}.top_large_leaf();
+  REQUIRE(large != kNoLeaf);
+  const auto n = std::uint32_t(b.db.primitives.size());
+  CHECK(leaf_list(b.grid, large) == std::vector<std::uint32_t>{n - 2, n - 1});  // the floor quad's two triangles
+  for (int a = 0; a < 3; ++a) {
+    CHECK(b.grid.info.bounds.lower[a] > -3.0f);
+    CHECK(b.grid.info.bounds.upper[a] < 3.0f);
+    CHECK(b.grid.info.res[a] > 1);
+  }
   check_random_rays(b, 5, 3000, Bounds3{{-3, -3, -1.0f}, {3, 3, 3}});
   check_random_rays(b, 6, 1000, Bounds3{{-250, -250, 5.0f}, {250, 250, 50}});
+  // Without that, the floor's top cell holds a sub-grid over the mesh, on all three axes.
+  GridParams in_top = adaptive();
+  in_top.large_beside_top = false;
+  const Built c(mesh_on_floor(11, 600, 300.0f), in_top);
+  CHECK(SubGridTables{c.grid.sub_grids, c.grid.cell_entries}.top_large_leaf() == kNoLeaf);
+  CHECK(c.grid.depth() >= 1);
+  bool deep_in_z = false;
+  for (const SubGrid& s : c.grid.sub_grids) deep_in_z |= s.level > 0 && s.info.res[2] > 1;
+  CHECK(deep_in_z);
+  check_random_rays(c, 5, 3000, Bounds3{{-3, -3, -1.0f}, {3, 3, 3}});
+  check_random_rays(c, 6, 1000, Bounds3{{-250, -250, 5.0f}, {250, 250, 50}});
 }
 
-TEST_CASE("adaptive grid: a floor under a mesh stays beside the mesh's sub-grid, whose box is the mesh's") {
-  const Built b(mesh_on_floor(13, 600, 300.0f), adaptive());
+TEST_CASE("adaptive grid: a floor under a mesh stays beside the mesh's grid (top or sub-grid), whose box is the mesh's") {
+  for (const bool beside_top : {true, false}) {
+  CAPTURE(beside_top);
+  GridParams params = adaptive();
+  params.large_beside_top = beside_top;
+  const Built b(mesh_on_floor(13, 600, 300.0f), params);
   // The floor's two triangles: the primitives wider than 100.
   std::vector<std::uint32_t> floor;
   for (std::uint32_t id = 0; id < b.db.primitives.size(); ++id)
@@ -148,6 +169,7 @@ TEST_CASE("adaptive grid: a floor under a mesh stays beside the mesh's sub-grid,
   for (const SubGrid& g : b.grid.sub_grids) {
     if (!g.large_list) continue;
     ++beside;
+    CHECK((g.level == 0) == beside_top);
     CHECK(leaf_list(b.grid, g.first_entry + g.info.cell_count()) == floor);
     // Above the floor (z = -1.5) and about as wide as the mesh (~2).
     CHECK(g.info.bounds.lower.z > -1.5f);
@@ -171,6 +193,7 @@ TEST_CASE("adaptive grid: a floor under a mesh stays beside the mesh's sub-grid,
     if (length(to - o) > 0) rc.check(Ray{o, to - o, 0.0f, uniform(rng, 0.1f, 1.5f)});
   }
   rc.require_clean();
+  }
 }
 
 // Records the exit parameter of every leaf a walk visits, in order, and
@@ -242,7 +265,9 @@ TEST_CASE("adaptive grid: random triangle soups with spheres and cones agree wit
 }
 
 TEST_CASE("adaptive grid: packed cells inside sub-grids give the same hits as the lists") {
-  const Built b(mesh_on_floor(12, 800, 300.0f), adaptive());
+  GridParams in_top = adaptive();  // the floor in the top grid, so that its cell holds a sub-grid
+  in_top.large_beside_top = false;
+  const Built b(mesh_on_floor(12, 800, 300.0f), in_top);
   REQUIRE(b.grid.sub_grid_count() > 0);
   CHECK(b.blocks.blocks.size() > 0);
   TraversalScratch s1, s2;
@@ -415,6 +440,9 @@ TEST_CASE("adaptive grid: every leaf cell is reached exactly once from the top g
   const Built b(mesh_on_floor(51, 1000, 200.0f), adaptive_deep());
   CHECK(b.grid.depth() == 2);
   std::vector<int> seen(b.grid.leaf_cells(), 0);
+  // The floor's leaf beside the top grid, after the top grid's cells.
+  REQUIRE(b.grid.sub_grids[0].large_list);
+  ++seen.at(b.grid.info.cell_count());
   for (const SubGrid& s : b.grid.sub_grids)
     for (std::uint32_t c = 0; c < s.info.cell_count(); ++c) {
       const std::uint32_t e = b.grid.cell_entries[s.first_entry + c];

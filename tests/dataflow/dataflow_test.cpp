@@ -110,12 +110,17 @@ TEST_CASE("dataflow: images equal sequential within 1e-5 for N in {1, 2, 3, 4, 8
     }
 }
 
-TEST_CASE("dataflow: a mesh on a huge floor renders as sequential with adaptive local grids that hold sub-grids") {
-  // Sub-grids from 8 primitives on, so that a small scene's regions get them.
-  const core::GridParams adaptive = grid_params(core::GridKind::kAdaptive, 8);
+TEST_CASE("dataflow: a mesh on a huge floor renders as sequential with adaptive local grids, the floor beside them or in them") {
+  for (const bool beside_top : {true, false}) {
+  CAPTURE(beside_top);
+  // Sub-grids from 8 primitives on, so that a small scene's regions get
+  // them (the floor in the top grids: beside the sub-grids over the mesh).
+  core::GridParams adaptive = grid_params(core::GridKind::kAdaptive, 8);
+  adaptive.large_beside_top = beside_top;
   const core::Database db = teapot_on_floor(3, 200.0f);
   const core::Grid host = core::build_grid(db, adaptive);
-  REQUIRE(host.sub_grid_count() > 0);
+  CHECK(host.sub_grids.at(0).large_list == beside_top);
+  if (!beside_top) REQUIRE(host.sub_grid_count() > 0);
   core::RenderParams rp;
   rp.width = 48;
   rp.height = 40;
@@ -141,7 +146,7 @@ TEST_CASE("dataflow: a mesh on a huge floor renders as sequential with adaptive 
       CHECK(g.bytes > g.grid_bytes);
       refined += g.grid_sub_grids > 0;
     }
-    CHECK(refined > 0);
+    if (!beside_top) CHECK(refined > 0);
     // The stats name each region's grid kind and, adaptive, its sub-grids and leaf cells.
     const nlohmann::json j = r.to_json();
     for (const nlohmann::json& g : j["per_region"]) {
@@ -157,6 +162,7 @@ TEST_CASE("dataflow: a mesh on a huge floor renders as sequential with adaptive 
     for (const RegionReport& g : u.regions) CHECK(g.grid_sub_grids == 0);
     CHECK_FALSE(u.to_json()["per_region"][0].contains("grid_sub_grids"));
     CHECK(u.to_json()["per_region"][0]["grid_kind"] == "uniform");
+  }
   }
 }
 

@@ -442,28 +442,33 @@ TEST_CASE("svm: under the model clock with the ipsc2 network every node count fi
 TEST_CASE("svm over an adaptive grid: paged sub-grids give the sequential image for every order, packing, node count and cache") {
   // A coarse top grid with sub-grids from 4 primitives (two levels below
   // the top), and the default adaptive grid on a small mesh standing on a
-  // floor 300 times its size (sub-grids where the mesh is, the floor
-  // beside one of them: core::SubGrid::large_list).
+  // floor 300 times its size: the floor beside the top grid (its leaf's
+  // key in the replicated layout), and, kept in the top grid, beside the
+  // sub-grid of the mesh's cell (core::SubGrid::large_list).
   const core::GridParams deep = raynode::testing::small_scene_sub_grids(4, true);
   core::GridParams normal;
   normal.kind = core::GridKind::kAdaptive;
+  core::GridParams in_top = normal;
+  in_top.large_beside_top = false;
   std::vector<std::pair<testing::BuiltScene, core::GridParams>> scenes;
   scenes.emplace_back(testing::build_spd("teapot", 2), deep);
   scenes.emplace_back(testing::build_spd("tetra", 3), deep);
-  {
+  for (const core::GridParams& gp : {normal, in_top}) {
     core::Scene s = core::make_spd_scene(core::SpdParams{"tetra", 5, 0});
     const float f = 300.0f;
     const core::Vec3 quad[4] = {{-f, -f, -1.01f}, {f, -f, -1.01f}, {f, f, -1.01f}, {-f, f, -1.01f}};
     s.add_polygon(quad, 4);
     testing::BuiltScene b;
     b.db = core::make_database(s);
-    scenes.emplace_back(std::move(b), normal);
+    scenes.emplace_back(std::move(b), gp);
   }
-  int large_lists = 0;
+  int large_lists = 0, top_large_lists = 0;
   for (auto& [b, gp] : scenes) {
     b.grid = core::build_grid(b.db, gp);
-    REQUIRE(b.grid.sub_grid_count() > 0);
-    for (const core::SubGrid& g : b.grid.sub_grids) large_lists += g.large_list;
+    const bool top_large = !b.grid.sub_grids.empty() && b.grid.sub_grids[0].large_list;
+    REQUIRE((b.grid.sub_grid_count() > 0 || top_large));
+    top_large_lists += top_large;
+    for (std::size_t i = 1; i < b.grid.sub_grids.size(); ++i) large_lists += b.grid.sub_grids[i].large_list;
     core::RenderParams rp = small_params(1, 0).render;
     const core::RenderResult seq = core::render(b.db, b.grid, rp);
     const core::RenderResult uniform = core::render(b.db, core::build_grid(b.db), rp);
@@ -484,13 +489,16 @@ TEST_CASE("svm over an adaptive grid: paged sub-grids give the sequential image 
             p.directory_order = order;
             const SvmResult r = render_svm(b.db, b.grid, p);
             CHECK(r.layout.sub_grids == b.grid.sub_grids.size());
+            CHECK((r.layout.top_large_key != core::kNoLeaf) == top_large);
             CHECK(testing::same_bytes(r.render.color, seq.color));
             CHECK(r.render.stats.rays.total() == seq.stats.rays.total());
             CHECK(r.render.stats.traversal.cells_visited == seq.stats.traversal.cells_visited);
-            if (n > 1 && cache == 1) CHECK(r.pager_total().segment_misses[std::size_t(Segment::kSubGrids)] > 0);
+            if (n > 1 && cache == 1 && b.grid.sub_grid_count() > 0)
+              CHECK(r.pager_total().segment_misses[std::size_t(Segment::kSubGrids)] > 0);
           }
   }
   CHECK(large_lists > 0);
+  CHECK(top_large_lists > 0);
 }
 
 TEST_CASE("svm: primitives in cell order give the sequential image and, on a shuffled mesh, fewer pages per pixel") {
