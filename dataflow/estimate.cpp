@@ -67,37 +67,11 @@ namespace {
 
 /// Adds `work`, the tests of the scene's large primitives beside the top
 /// grid (CostView), to the cost cells in proportion to their other work:
-/// every ray tests them, where its walk charges the rest. When nothing else
-/// was charged, evenly over the cost cells under those primitives' screen
-/// boxes.
-void charge_beside_top(const core::Database& db, const core::Grid& grid, const CameraFrame& frame, double work,
-                       CostGrid& c) {
+/// every ray tests them, where its walk charges the rest (evenly, when
+/// nothing else was charged).
+void charge_beside_top(double work, CostGrid& c) {
   const double others = c.total();
-  if (others > 0) {
-    for (double& v : c.cost) v += work * (v / others);
-    return;
-  }
-  const std::uint32_t leaf = core::SubGridTables{grid.sub_grids, grid.cell_entries}.top_large_leaf();
-  const ScreenRect& e = c.extent;
-  const double sx = c.nx / (double(e.x1) - e.x0), sy = c.ny / (double(e.y1) - e.y0);
-  const auto bin = [](double v, double lo, double scale, int n) {
-    return std::clamp(int(std::floor(std::clamp((v - lo) * scale, -1.0, double(n)))), 0, n - 1);
-  };
-  std::vector<std::uint8_t> under(c.cost.size(), 0);
-  for (std::uint32_t k = grid.cell_start[leaf]; k < grid.cell_start[leaf + 1]; ++k) {
-    const core::Bounds3 b = db.primitives[grid.cell_primitives[k]].bounds();
-    double x0 = core::kInfinity, y0 = core::kInfinity, x1 = -core::kInfinity, y1 = -core::kInfinity;
-    for (int i = 0; i < 8; ++i) {
-      const core::Vec3 p{(i & 1) ? b.upper.x : b.lower.x, (i & 2) ? b.upper.y : b.lower.y, (i & 4) ? b.upper.z : b.lower.z};
-      x0 = std::min(x0, double(frame.x(p))), x1 = std::max(x1, double(frame.x(p)));
-      y0 = std::min(y0, double(frame.y(p))), y1 = std::max(y1, double(frame.y(p)));
-    }
-    for (int by = bin(y0, e.y0, sy, c.ny); by <= bin(y1, e.y0, sy, c.ny); ++by)
-      for (int bx = bin(x0, e.x0, sx, c.nx); bx <= bin(x1, e.x0, sx, c.nx); ++bx) under[std::size_t(by) * c.nx + bx] = 1;
-  }
-  const double cells = double(std::count(under.begin(), under.end(), std::uint8_t(1)));
-  for (std::size_t i = 0; i < under.size(); ++i)
-    if (under[i]) c.cost[i] += work / cells;
+  for (double& v : c.cost) v += others > 0 ? work * (v / others) : work / double(c.cost.size());
 }
 
 /// One pass of estimate_load over the cost grid `c` (its extent and shape
@@ -118,7 +92,7 @@ void charge(const core::Database& db, const core::Grid& grid, const core::Camera
       ++out.pixels;
     }
   out.rays = scratch.stats.rays.total();
-  if (beside_top > 0) charge_beside_top(db, grid, frame, beside_top, c);
+  if (beside_top > 0) charge_beside_top(beside_top, c);
 }
 
 }  // namespace
