@@ -218,8 +218,10 @@ inline constexpr std::uint32_t kMinJumpDistance = 4;
 /// boundary of the grid are handled. Precondition: is_valid_ray(ray).
 ///
 /// 3D-DDA (Amanatides & Woo 1987). The parameter of the next cell boundary
-/// on each axis is recomputed from the boundary's grid index, never
-/// accumulated (t += delta drifts), so every view and every thread walks the
+/// on each axis is recomputed from the boundary's grid index b, as
+/// t = t_lower + b * t_cell (the ray's parameter at the grid's lower face
+/// and per cell, both set once per walk), never accumulated (t += delta
+/// drifts), so every view and every thread walks the
 /// same cells for the same ray. Ties between axes go to the lowest of
 /// (x < y ? (x < z ? x : z) : (y < z ? y : z)); the cell index is kept
 /// linear (one add per step).
@@ -252,12 +254,10 @@ inline void walk_grid(const GridInfo& g, const Order& order, const Ray& ray, con
   // operations in its order (no FMA: -ffp-contract=off), so the cells are
   // the same. Lane 3 is never read: four-float loads take the next member
   // there (GridInfo: bounds.upper.x after bounds.lower, res[0] after
-  // bounds.upper, cell_size.x after res, inv_cell_size.x after cell_size;
-  // Ray: direction.x after origin, tmin after direction); the last member
-  // of each is set lane by lane.
+  // bounds.upper, cell_size.x after res; Ray: direction.x after origin,
+  // tmin after direction); the last member of each is set lane by lane.
   static_assert(offsetof(Bounds3, upper) == sizeof(Vec3) && offsetof(GridInfo, res) == sizeof(Bounds3) &&
                 offsetof(GridInfo, cell_size) == offsetof(GridInfo, res) + 3 * sizeof(int) &&
-                offsetof(GridInfo, inv_cell_size) == offsetof(GridInfo, cell_size) + sizeof(Vec3) &&
                 offsetof(Ray, tmin) == 2 * sizeof(Vec3));
   const __m128 v_lower = _mm_loadu_ps(&g.bounds.lower.x);
   const __m128 v_org = _mm_loadu_ps(&ray.origin.x);
@@ -298,6 +298,18 @@ inline void walk_grid(const GridInfo& g, const Order& order, const Ray& ray, con
   const float lower[3] = {g.bounds.lower.x, g.bounds.lower.y, g.bounds.lower.z};
   const float size[3] = {g.cell_size.x, g.cell_size.y, g.cell_size.z};
   const std::int32_t stride[3] = {1, g.res[0], g.res[0] * g.res[1]};
+  // Boundary index b on axis a lies at the ray's parameter base[a] + b *
+  // span[a], from the index each time (no sum carried from step to step).
+  // Where either overflows (a direction component near 0, whose
+  // reciprocal is huge or infinite: the ray crosses no boundary of that
+  // axis before t ~ 1e37, far beyond the grid), the axis's boundaries lie
+  // at +inf, as a still axis's.
+  float base[3], span[3];
+  for (int a = 0; a < 3; ++a) {
+    base[a] = (lower[a] - org[a]) * inv[a];
+    span[a] = size[a] * inv[a];
+    if (!(std::fabs(base[a]) < kInfinity && std::fabs(span[a]) < kInfinity)) base[a] = kInfinity, span[a] = 0.0f;
+  }
   int step[3];                   // +-1/0 per axis
   std::int32_t delta[3];         // linear index change per step
   const std::int32_t* steps[3];  // bricked: the key's change per step, by next boundary
@@ -321,7 +333,6 @@ inline void walk_grid(const GridInfo& g, const Order& order, const Ray& ray, con
   int l0, l1, l2, b0, b1, b2;
   std::int32_t cell;
 #if defined(__SSE4_1__)
-  const __m128 v_size = _mm_loadu_ps(&g.cell_size.x);  // lane 3: inv_cell_size.x
   const __m128 v_inv_size = _mm_setr_ps(g.inv_cell_size.x, g.inv_cell_size.y, g.inv_cell_size.z, 0.0f);
   const __m128i v_last =  // last cell per axis
       _mm_sub_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(g.res)), _mm_set1_epi32(1));
@@ -334,8 +345,10 @@ inline void walk_grid(const GridInfo& g, const Order& order, const Ray& ray, con
     return _mm_blendv_epi8(c, v_last, _mm_castps_si128(_mm_cmpge_ps(f, v_last_f)));
   };
   // The ray's parameter at boundary index b per lane (+inf on a still axis).
+  const __m128 v_base = _mm_setr_ps(base[0], base[1], base[2], 0.0f);
+  const __m128 v_span = _mm_setr_ps(span[0], span[1], span[2], 0.0f);
   auto boundary_t = [&](__m128i b) [[gnu::always_inline]] {
-    const __m128 t = _mm_mul_ps(_mm_sub_ps(_mm_add_ps(v_lower, _mm_mul_ps(_mm_cvtepi32_ps(b), v_size)), v_org), v_inv);
+    const __m128 t = _mm_add_ps(v_base, _mm_mul_ps(_mm_cvtepi32_ps(b), v_span));
     return _mm_blendv_ps(t, v_inf, v_still);
   };
   // The walk's state in cell c (per lane).
@@ -361,7 +374,7 @@ inline void walk_grid(const GridInfo& g, const Order& order, const Ray& ray, con
     float next_t[3];
     for (int a = 0; a < 3; ++a) {
       b[a] = c[a] + int(step[a] > 0);
-      next_t[a] = step[a] != 0 ? (lower[a] + float(b[a]) * size[a] - org[a]) * inv[a] : kInfinity;
+      next_t[a] = step[a] != 0 ? base[a] + float(b[a]) * span[a] : kInfinity;
       left[a] = step[a] > 0 ? g.res[a] - 1 - c[a] : (step[a] < 0 ? c[a] : -1);
     }
     n0 = next_t[0], n1 = next_t[1], n2 = next_t[2];
@@ -386,7 +399,7 @@ inline void walk_grid(const GridInfo& g, const Order& order, const Ray& ray, con
     if constexpr (kLinear) cell += delta[a];
     else cell += steps[a][b];  // b: the boundary crossed
     b += step[a];
-    n = (lower[a] + float(b) * size[a] - org[a]) * inv[a];
+    n = base[a] + float(b) * span[a];
     return true;
   };
   for (;;) {
@@ -442,7 +455,7 @@ inline void walk_grid(const GridInfo& g, const Order& order, const Ray& ray, con
     for (int a = 0; a < 3; ++a) {
       const int reach = r < l[a] ? r : l[a];  // l[a] < 0 on a still axis: t_far stays +inf
       far[a] = b[a] + step[a] * reach;
-      t_far[a] = step[a] != 0 ? (lower[a] + float(far[a]) * size[a] - org[a]) * inv[a] : kInfinity;
+      t_far[a] = step[a] != 0 ? base[a] + float(far[a]) * span[a] : kInfinity;
     }
     const int e = (t_far[0] < t_far[1]) ? (t_far[0] < t_far[2] ? 0 : 2) : (t_far[1] < t_far[2] ? 1 : 2);
     const float t_jump = t_far[e];

@@ -395,3 +395,34 @@ TEST_CASE("grid: a jump never passes a primitive in the cell just beyond the emp
   CHECK(cmp.sj.stats.empty_jumps > 0);
   CHECK(cmp.sj.stats.cells_visited < cmp.sp.stats.cells_visited);
 }
+
+TEST_CASE("grid: rays with a direction component near 0 (huge or infinite reciprocal) walk like brute force") {
+  // A component of 1e-30 or a denormal 1e-40 overflows the parameter of
+  // that axis's boundaries: the walk must neither step along it nor take
+  // a NaN for the next boundary, from inside the grid, from outside it and
+  // from a cell plane, in the uniform and the adaptive grid.
+  const Scene s = random_scene(21, 300, 20, 10, 0.15f);
+  for (const bool adaptive : {false, true}) {
+    CAPTURE(adaptive);
+    GridParams gp;
+    if (adaptive) gp.kind = GridKind::kAdaptive;
+    const Built b(s, gp);
+    RayChecker chk(b);
+    Rng rng(22);
+    const Bounds3 box = grown(b.db.bounds, 0.2f);
+    const GridInfo& g = b.grid.info;
+    for (int i = 0; i < 3000; ++i) {
+      Vec3 o = random_in(rng, box);
+      const int a = i % 3;
+      if (i % 4 == 0) o[a] = g.bounds.lower[a] + float(i % g.res[a]) * g.cell_size[a];  // on a cell plane
+      Vec3 d = random_unit(rng);
+      const float tiny[3] = {1e-30f, 1e-40f, -1e-40f};
+      d[a] = tiny[(i / 3) % 3];
+      if (i % 5 == 0) d[(a + 1) % 3] = 0.0f;  // and one axis still
+      if (length(d) == 0.0f) continue;
+      chk.check(Ray{o, d, 0.0f, kInfinity});
+    }
+    CHECK(chk.hits > 300);
+    chk.require_clean();
+  }
+}
