@@ -617,20 +617,27 @@ def median(values):
     return v[n // 2] if n % 2 else (v[n // 2 - 1] + v[n // 2]) / 2
 
 
+def geometric_mean(values):
+    v = list(values)
+    return math.exp(sum(math.log(x) for x in v) / len(v))
+
+
 def section_accel(src):
     name = "grid-against-embree-2core.csv"
     body = []
+    changed = []  # the scenes whose tests per ray changed: a large primitive split off
     for scene, old, new, ro, rn, paired in ab_pairs(name):
         build = median(float(r["grid_build_s"]) / float(r["embree_build_s"]) for r in new if float(r["embree_build_s"]))
         body.append([scene, f"{ro:.2f}", f"{rn:.2f}", f"{paired:.2f}", f"{build:.2f}",
                      f"{float(old[0]['tests_per_ray']):.1f} / {float(new[0]['tests_per_ray']):.1f}",
                      f"{float(new[0]['cells_per_ray']):.1f}"])
+        if f"{float(old[0]['tests_per_ray']):.1f}" != f"{float(new[0]['tests_per_ray']):.1f}":
+            changed.append(body[-1])
     body.sort(key=lambda b: float(b[2]))
+    changed.sort(key=lambda b: float(b[2]))
     within = sum(1 for b in body if float(b[2]) <= 1.3)
-    changed = [b for b in body if b[5].split(" / ")[0] != b[5].split(" / ")[1]]
     within_old = sum(1 for b in body if float(b[1]) <= 1.3)
     worst = body[-1]
-    geo = lambda xs: math.exp(sum(math.log(x) for x in xs) / len(xs))
     return "\n".join([
         "## The grid against Embree",
         "",
@@ -643,8 +650,8 @@ def section_accel(src):
         f"- {within} of {len(body)} scenes run within 1.3x Embree's time ({within_old} with every primitive in "
         f"the top grid); the slowest against it is {worst[0]}, at {worst[2]}x. Embree's build runs on all the "
         "host's threads, the grid's on one.",
-        f"- The geometric mean of grid / Embree went from {geo([float(b[1]) for b in body]):.2f} to "
-        f"{geo([float(b[2]) for b in body]):.2f}. The {len(changed)} scenes with a floor or walls as large as the "
+        f"- The geometric mean of grid / Embree went from {geometric_mean(float(b[1]) for b in body):.2f} to "
+        f"{geometric_mean(float(b[2]) for b in body):.2f}. The {len(changed)} scenes with a floor or walls as large as the "
         f"scene ({', '.join(b[0] for b in changed)}) trace {min(float(b[3]) for b in changed):.2f}-"
         f"{max(float(b[3]) for b in changed):.2f}x the time; the others keep their grid (the same tests per "
         "ray), and their ratios show this machine's noise.",
@@ -695,14 +702,15 @@ def paired_median(a, b, value):
     return median(value(a[k]) / value(b[k]) for k in a if k in b)
 
 
-def ab_pairs(name):
-    """docs/ab_pair.sh's rows in results/NAME, per scene in file order: (scene, old runs, new runs, the medians
-    of grid/Embree old and new, the median of the paired old/new grid rays/s, i.e. new/old grid time)."""
+def ab_pairs(name, rounds=None):
+    """docs/ab_pair.sh's rows in results/NAME (or `rounds`, ab_rounds(NAME) already read), per scene in file
+    order: (scene, old runs, new runs, the medians of grid/Embree old and new, the median of the paired old/new
+    grid rays/s, i.e. new/old grid time)."""
     return [(scene, list(old.values()), list(new.values()),
              median(float(r["grid_over_embree_time"]) for r in old.values()),
              median(float(r["grid_over_embree_time"]) for r in new.values()),
              paired_median(old, new, lambda r: float(r["grid_rays_per_s"])))
-            for scene, old, new in ab_rounds(name)]
+            for scene, old, new in (rounds if rounds is not None else ab_rounds(name))]
 
 
 def ab_instruction_rows(name):
@@ -778,7 +786,7 @@ def section_walk_constants(src):
     ratios = [paired for *_, paired in rows]
     same = sum(1 for _, old, new, *_ in rows
                if all(old[0][k] == new[0][k] for k in ("tests_per_ray", "cells_per_ray")))
-    geo = math.exp(sum(math.log(r) for r in ratios) / len(ratios))
+    geo = geometric_mean(ratios)
     return ab_section(
         src, "Cell boundaries from two constants per axis",
         "The 3D-DDA computes each next boundary's parameter from its grid index, never by a running sum. It did "
@@ -825,7 +833,7 @@ def section_simd_walk(src):
     wall = "simd-walk-ab-2core.csv"
     pairs = ab_pairs(wall)
     paired = [p for *_, p in pairs]
-    geomean = math.exp(sum(math.log(p) for p in paired) / len(paired))
+    geomean = geometric_mean(paired)
     return instructions_section(
         src, "simd-walk-instructions.csv", "Walk entries and jumps in SIMD lanes",
         "A walk's entry into a grid (top grid or sub-grid: the slab test against its box, then the entry cell, the "
@@ -923,10 +931,10 @@ def section_robust_cost(src):
 def section_robust_checks(src):
     """The robust triangle finish's own cost: today's tracer against a build of it without those checks."""
     name = "robust-checks-ab-2core.csv"
-    ratio = {scene: paired_median(new, old, lambda r: float(r["grid_over_embree_time"]))
-             for scene, old, new in ab_rounds(name)}
+    rounds = ab_rounds(name)
+    ratio = {scene: paired_median(new, old, lambda r: float(r["grid_over_embree_time"])) for scene, old, new in rounds}
     body = [[scene, f"{ro:.2f}", f"{rn:.2f}", f"{ratio[scene]:.3f}", f"{paired:.2f}"]
-            for scene, _, _, ro, rn, paired in ab_pairs(name)]
+            for scene, _, _, ro, rn, paired in ab_pairs(name, rounds)]
     over = [b[0] for b in body if float(b[3]) > 1.03]
     return "\n".join([
         "The robust tests' own cost, without the other changes: this tracer against a build of the same source "
