@@ -15,14 +15,29 @@ rm -rf "$workdir" && mkdir -p "$workdir" && cd "$workdir" || exit 2
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
 args=("$scene" --width 40 --height 32 --quiet --timeout 100 "$@")
 fail=0
+# mpirun -np N raynode ARGS..., its output in LOG. Open MPI 4.1 now and then
+# reports a rank that ended after MPI_Finalize as "with PID 0 ... exiting
+# improperly" (a race in its launcher's shutdown, seen under load); such a run
+# is tried again, at most twice, and said so. A rank that really skips
+# MPI_Finalize fails every try, and a rank's own error line is never retried.
+run_ranks() {
+  local np=$1 log=$2 try
+  shift 2
+  for try in 1 2 3; do
+    timeout --kill-after=5 120 "$mpiexec" -np "$np" "$raynode" "$@" >"$log" 2>&1 && return 0
+    grep -q "with PID 0 on" "$log" && grep -q "exiting improperly" "$log" && ! grep -q "^raynode: " "$log" || return 1
+    [ "$try" = 3 ] && return 1
+    echo "NOTE: -np $np try $try: Open MPI reported a rank with PID 0 exiting improperly; trying again"
+  done
+  return 1
+}
 "$raynode" render "${args[@]}" --mode sequential -o ref.ppm || { echo "FAIL: the sequential render"; exit 1; }
 for np in 1 2 3 4; do
   for mode in replicated svm dataflow svm-get; do
     out="$mode$np.ppm"
     how=(--mode "$mode")
     [ "$mode" = svm-get ] && how=(--mode svm --page-fetch get)
-    if ! timeout --kill-after=5 120 "$mpiexec" -np "$np" "$raynode" render "${args[@]}" "${how[@]}" --transport mpi \
-        -o "$out" --stats "$mode$np.json" >"$mode$np.log" 2>&1; then
+    if ! run_ranks "$np" "$mode$np.log" render "${args[@]}" "${how[@]}" --transport mpi -o "$out" --stats "$mode$np.json"; then
       if [ "$mode" = svm-get ] && grep -q "MPI_Win_create" "$mode$np.log"; then
         echo "SKIP: -np $np --page-fetch get: no one-sided MPI between these ranks here:"
         grep -m1 "MPI_Win_create" "$mode$np.log"
