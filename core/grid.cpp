@@ -13,6 +13,9 @@
 
 #include "core/stop.h"
 
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
 namespace raynode::core {
 
 Bounds3 GridInfo::cell_bounds(int x, int y, int z) const {
@@ -382,17 +385,79 @@ double magnitude_eps(const Bounds3& b) {
          std::max(max_component(abs(b.lower)), max_component(abs(b.upper)));
 }
 
+// (cell, primitive) pairs of one run of primitives, in primitive order.
+using CellPairs = std::vector<std::pair<std::uint32_t, std::uint32_t>>;
+
+// Scratch of collect_pairs, kept across grids so that its capacity is reused:
+// the pairs of each run of primitives and each run's for_each_overlapped_cell
+// scratch.
+struct PairRuns {
+  std::vector<CellPairs> runs;
+  std::vector<CellSpans> spans;
+};
+
+// Primitives per run of collect_pairs below which it stays on the calling
+// thread: a run must outweigh the cost of handing it to another thread.
+constexpr std::size_t kPrimitivesPerRun = 1024;
+
+// Threads the grid build may use: oneTBB's, as Embree's build does. One under
+// ThreadSanitizer, which cannot see libtbb's (uninstrumented) synchronisation.
+int build_threads() {
+#if defined(__SANITIZE_THREAD__)
+  return 1;
+#else
+  return std::max(1, tbb::this_task_arena::max_concurrency());
+#endif
+}
+
+// The (cell, primitive) pairs of `count` primitives, the i-th being
+// id_at(i) with bounds bounds_of(id), in the grid `info` whose cells are
+// inflated by eps: out.runs in primitive order (one run, or with more
+// hardware threads several runs of consecutive primitives made in parallel
+// with oneTBB; the same pairs in the same order either way). poll() every
+// 4096 primitives and as for_each_overlapped_cell says; a StopError it
+// throws reaches the caller.
+template <class IdAt, class BoundsOf, class Poll>
+void collect_pairs(const GridInfo& info, const double eps[3], const Database& db, std::size_t count,
+                          IdAt&& id_at, BoundsOf&& bounds_of, Poll&& poll, PairRuns& out) {
+  const auto threads = std::size_t(build_threads());
+  const std::size_t nruns = threads > 1 ? std::clamp<std::size_t>(count / kPrimitivesPerRun, 1, 4 * threads) : 1;
+  out.runs.resize(nruns);
+  if (out.spans.size() < nruns) out.spans.resize(nruns);
+  std::vector<std::size_t> work(nruns, 0);
+  auto run = [&](std::size_t k) {
+    const std::size_t begin = count * k / nruns, end = count * (k + 1) / nruns;
+    CellPairs& pairs = out.runs[k];
+    pairs.clear();
+    pairs.reserve((end - begin) * 2);
+    for (std::size_t i = begin; i < end; ++i) {
+      if ((i & 4095u) == 0) poll();
+      const std::uint32_t id = id_at(i);
+      for_each_overlapped_cell(info, eps, db.primitives[id], bounds_of(id), out.spans[k], work[k],
+                               [&](int x, int y, int z) { pairs.emplace_back(info.cell_index(x, y, z), id); }, poll);
+    }
+  };
+  if (nruns == 1) run(0);
+  else tbb::parallel_for(std::size_t(0), nruns, run);
+}
+
 // The CSR cell lists of `ncells` cells from (cell, primitive) pairs, by a
 // counting sort: cell c lists primitives[start[c] .. start[c + 1]) in the
-// pairs' order (ascending ids when the pairs were made primitive by primitive).
-void pairs_to_csr(std::span<const std::pair<std::uint32_t, std::uint32_t>> pairs, std::uint32_t ncells,
-                  std::vector<std::uint32_t>& start, std::vector<std::uint32_t>& primitives) {
+// pairs' order, run after run (ascending ids when the pairs were made
+// primitive by primitive).
+void pairs_to_csr(std::span<const CellPairs> runs, std::uint32_t ncells, std::vector<std::uint32_t>& start,
+                  std::vector<std::uint32_t>& primitives) {
   start.assign(std::size_t(ncells) + 1, 0);
-  for (const auto& pr : pairs) ++start[pr.first + 1];
+  std::size_t total = 0;
+  for (const CellPairs& pairs : runs) {
+    total += pairs.size();
+    for (const auto& pr : pairs) ++start[pr.first + 1];
+  }
   for (std::uint32_t c = 0; c < ncells; ++c) start[c + 1] += start[c];
-  primitives.resize(pairs.size());
+  primitives.resize(total);
   std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
-  for (const auto& pr : pairs) primitives[fill[pr.first]++] = pr.second;
+  for (const CellPairs& pairs : runs)
+    for (const auto& pr : pairs) primitives[fill[pr.first]++] = pr.second;
 }
 
 Grid build_uniform_grid(const Database& db, const GridParams& params) {
@@ -407,24 +472,18 @@ Grid build_uniform_grid(const Database& db, const GridParams& params) {
   cell_inflation(info, magnitude_eps(b), eps);
 
   // Pass 1 collects (cell, primitive) pairs; a counting sort makes the CSR.
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
-  pairs.reserve(db.primitives.size() * 2);
   // Polled every 4096 primitives and every 4096 cells tested (one primitive
   // may span most of a large grid).
-  std::size_t work = 0;
-  CellSpans spans;
   auto poll_stop = [&] {
     if (stop_requested())
       throw_if_stopped(fmt::format("building the grid ({} primitives, {}x{}x{} cells)", db.primitives.size(),
                                    info.res[0], info.res[1], info.res[2]));
   };
-  for (std::uint32_t pi = 0; pi < db.primitives.size(); ++pi) {
-    if ((pi & 4095u) == 0) poll_stop();
-    const Primitive& p = db.primitives[pi];
-    for_each_overlapped_cell(info, eps, p, p.bounds(), spans, work,
-                             [&](int x, int y, int z) { pairs.emplace_back(info.cell_index(x, y, z), pi); }, poll_stop);
-  }
-  pairs_to_csr(pairs, ncells, grid.cell_start, grid.cell_primitives);
+  PairRuns pairs;
+  collect_pairs(
+      info, eps, db, db.primitives.size(), [](std::size_t i) { return std::uint32_t(i); },
+      [&](std::uint32_t id) { return db.primitives[id].bounds(); }, poll_stop, pairs);
+  pairs_to_csr(pairs.runs, ncells, grid.cell_start, grid.cell_primitives);
   compute_empty_distance(grid, params.skip_empty);
   return grid;
 }
@@ -522,15 +581,12 @@ class AdaptiveBuilder {
                                      db_.primitives.size(), grid_.sub_grids.size()));
     };
     // This grid's cell lists (CSR, by a counting sort of (cell, primitive)).
-    pairs_.clear();  // scratch kept across grids: its capacity is reused
-    pairs_.reserve(prims.size() * 2);
-    for (const std::uint32_t pi : prims)
-      for_each_overlapped_cell(info, eps, db_.primitives[pi], bounds_[pi], spans_, work_,
-                               [&](int x, int y, int z) { pairs_.emplace_back(info.cell_index(x, y, z), pi); }, poll);
+    collect_pairs(
+        info, eps, db_, prims.size(), [&](std::size_t i) { return prims[i]; },
+        [&](std::uint32_t id) -> const Bounds3& { return bounds_[id]; }, poll, pairs_);
     Grid local;
     local.info = info;
-    pairs_to_csr(pairs_, ncells, local.cell_start, local.cell_primitives);
-    pairs_.clear();
+    pairs_to_csr(pairs_.runs, ncells, local.cell_start, local.cell_primitives);
     // A cell holding a sub-grid lists primitives, so it counts as non-empty.
     compute_empty_distance(local, params_.skip_empty);
     // Leaf first + c for every cell c, a placeholder (no list) where the
@@ -545,24 +601,46 @@ class AdaptiveBuilder {
       GridInfo info;
       std::vector<std::uint32_t> small, large;  // the sub-grid's primitives; those beside it
     };
+    // Which crowded cells get a sub-grid: each cell's answer depends on its
+    // list alone, so they are found in parallel (oneTBB) and taken in cell
+    // order.
     std::vector<Child> children;
+    if (level < std::uint32_t(params_.max_depth))
+      for (std::uint32_t c = 0; c < ncells; ++c)
+        if (local.cell_start[c + 1] - local.cell_start[c] >= params_.sub_grid_min) children.push_back({c, {}, {}, {}});
+    std::vector<char> refines(children.size(), 0);
+    auto decide = [&](std::size_t i) {
+      Child& child = children[i];
+      const std::uint32_t b = local.cell_start[child.cell], e = local.cell_start[child.cell + 1];
+      const std::span<const std::uint32_t> list = std::span(local.cell_primitives).subspan(b, e - b);
+      split_large(cell_box(info, child.cell), list, kLargeShare * double(list.size()), child.small, child.large);
+      bool refine = make_sub_grid(info, child.cell, child.small, child.info);
+      if (!refine && !child.large.empty()) {  // the split did not pay: all in the sub-grid, if that does
+        child.small.assign(list.begin(), list.end());
+        child.large.clear();
+        refine = make_sub_grid(info, child.cell, child.small, child.info);
+      }
+      refines[i] = refine;
+    };
+    if (children.size() > 1 && build_threads() > 1)
+      tbb::parallel_for(std::size_t(0), children.size(), decide);
+    else
+      for (std::size_t i = 0; i < children.size(); ++i) decide(i);
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < children.size(); ++i)
+      if (refines[i]) {
+        if (kept != i) children[kept] = std::move(children[i]);
+        ++kept;
+      }
+    children.resize(kept);
+    std::size_t next_child = 0;
     for (std::uint32_t c = 0; c < ncells; ++c) {
       const std::uint32_t b = local.cell_start[c], e = local.cell_start[c + 1];
-      const std::span<const std::uint32_t> list = std::span(local.cell_primitives).subspan(b, e - b);
-      bool refine = false;
-      if (level < std::uint32_t(params_.max_depth) && e - b >= params_.sub_grid_min) {
-        Child child{c, {}, {}, {}};
-        split_large(cell_box(info, c), list, kLargeShare * double(list.size()), child.small, child.large);
-        refine = make_sub_grid(info, c, child.small, child.info);
-        if (!refine && !child.large.empty()) {  // the split did not pay: all in the sub-grid, if that does
-          child.small.assign(list.begin(), list.end());
-          child.large.clear();
-          refine = make_sub_grid(info, c, child.small, child.info);
-        }
-        if (refine) children.push_back(std::move(child));
-      }
+      const bool refine = next_child < children.size() && children[next_child].cell == c;
+      next_child += refine;
       if (!refine)
-        grid_.cell_primitives.insert(grid_.cell_primitives.end(), list.begin(), list.end());
+        grid_.cell_primitives.insert(grid_.cell_primitives.end(), local.cell_primitives.begin() + b,
+                                     local.cell_primitives.begin() + e);
       grid_.cell_start.push_back(std::uint32_t(grid_.cell_primitives.size()));
       grid_.empty_distance.push_back(refine ? std::uint8_t(kSubGridMark) : local.empty_distance[c]);
       grid_.cell_entries[first + c] = first + c;
@@ -708,9 +786,7 @@ class AdaptiveBuilder {
   Grid& grid_;
   double mag_eps_;
   std::vector<Bounds3> bounds_;  // of each primitive, by id
-  std::size_t work_ = 0;
-  CellSpans spans_;  // scratch of for_each_overlapped_cell
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs_;  // scratch of build: (cell, primitive)
+  PairRuns pairs_;  // scratch of build: (cell, primitive) pairs
 };
 
 Grid build_adaptive_grid(const Database& db, const GridParams& params) {

@@ -4,6 +4,7 @@
 // databases; its images equal the uniform grid's; its per-axis resolutions
 // never give a thin-but-populated axis one cell. No timing here (bench accel).
 #include <doctest/doctest.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cstdint>
@@ -528,4 +529,39 @@ TEST_CASE("adaptive grid: cells crowded by large overlapping spheres stay leaves
   GridParams p = adaptive();
   p.resolution[0] = p.resolution[1] = p.resolution[2] = 1;
   CHECK(build_grid(make_database(random_scene(21, 600, 0, 0, 0.05f)), p).sub_grid_count() >= 1);
+}
+
+TEST_CASE("grid build: the same lists on one thread and on four (runs of primitives merged in order)") {
+  // Each build runs in an arena of a fixed size, so the many-thread path is
+  // taken on any machine (an arena may have more slots than cores).
+  const struct {
+    const char* spec;
+    int tessellate;
+    GridParams params;
+  } cases[] = {{"tetra:6", 0, adaptive()},
+               {"tetra:6", 0, GridParams{.kind = GridKind::kUniform}},
+               {"balls:3", 1, adaptive()},
+               {"shells:5", 0, adaptive()},
+               {"teapot:8", 0, adaptive_deep()}};
+  for (const auto& c : cases) {
+    const std::string spec = c.spec, kind = grid_kind_name(c.params.kind);
+    CAPTURE(spec);
+    CAPTURE(kind);
+    const Database db = make_database(load_scene({c.spec, c.tessellate}));
+    REQUIRE(db.primitives.size() >= 4096);  // several runs of primitives on four threads
+    Grid one, four;
+    tbb::task_arena(1).execute([&] { one = build_grid(db, c.params); });
+    tbb::task_arena(4).execute([&] { four = build_grid(db, c.params); });
+    CHECK(one.cell_primitives.size() > db.primitives.size());
+    CHECK(four.cell_start == one.cell_start);
+    CHECK(four.cell_primitives == one.cell_primitives);
+    CHECK(four.empty_distance == one.empty_distance);
+    CHECK(four.cell_entries == one.cell_entries);
+    REQUIRE(four.sub_grids.size() == one.sub_grids.size());
+    for (std::size_t i = 0; i < one.sub_grids.size(); ++i) {
+      CHECK(four.sub_grids[i].first_entry == one.sub_grids[i].first_entry);
+      CHECK(four.sub_grids[i].info.cell_count() == one.sub_grids[i].info.cell_count());
+    }
+    if (spec == "teapot:8") CHECK(one.sub_grids.size() > 2);  // sub-grid choices made in parallel
+  }
 }
