@@ -418,8 +418,8 @@ int build_threads() {
 // 4096 primitives and as for_each_overlapped_cell says; a StopError it
 // throws reaches the caller.
 template <class IdAt, class BoundsOf, class Poll>
-void collect_pairs(const GridInfo& info, const double eps[3], const Database& db, std::size_t count,
-                          IdAt&& id_at, BoundsOf&& bounds_of, Poll&& poll, PairRuns& out) {
+void collect_pairs(const GridInfo& info, const double eps[3], const Database& db, std::size_t count, IdAt&& id_at,
+                   BoundsOf&& bounds_of, Poll&& poll, PairRuns& out) {
   const auto threads = std::size_t(build_threads());
   const std::size_t nruns = threads > 1 ? std::clamp<std::size_t>(count / kPrimitivesPerRun, 1, 4 * threads) : 1;
   out.runs.resize(nruns);
