@@ -273,3 +273,37 @@ TEST_CASE("region: the estimate over an adaptive grid traces the uniform grid's 
   CHECK(p.region_count() == 8u);
   }
 }
+
+TEST_CASE("region: where no ray's walk enters the top grid, the large primitives' work beside it is spread evenly") {
+  // A small mesh on a floor 100x its size, seen from straight above a patch
+  // of floor far from it, with no light (no shadow ray) and rays reflected
+  // straight up: every ray tests only the floor, beside the top grid.
+  core::Scene s = core::make_spd_scene(core::SpdParams{"teapot", 3, 0});
+  s.lights.clear();
+  const core::Bounds3 mb = core::make_database(s).bounds;
+  const core::Vec3 mc = mb.center();
+  const float size = std::max(mb.upper.x - mb.lower.x, mb.upper.y - mb.lower.y);
+  const float half = 50.0f * size;
+  const float z = mb.lower.z - 0.01f * (mb.upper.z - mb.lower.z);
+  const core::Vec3 quad[4] = {{mc.x - half, mc.y - half, z}, {mc.x + half, mc.y - half, z},
+                              {mc.x + half, mc.y + half, z}, {mc.x - half, mc.y + half, z}};
+  s.add_polygon(quad, 4);
+  const core::Database db = core::make_database(s);
+  const core::Grid grid = core::build_grid(db, raynode::testing::small_scene_sub_grids(8, false));
+  REQUIRE(grid.sub_grids[0].large_list);  // the floor beside the top grid
+  core::View view;
+  const core::Vec3 spot{mc.x + 0.4f * half, mc.y + 0.4f * half, z};
+  view.from = spot + core::Vec3{0, 0, 3.0f * size};
+  view.at = spot;
+  view.up = {0, 1, 0};
+  const core::Camera cam(view, 32, 32);
+  const CameraFrame f = CameraFrame::of(view);
+  EstimateParams ep;
+  ep.subsample = 2;
+  const LoadEstimate est = estimate_load(db, grid, cam, f, screen_extent(f, db.bounds), ep);
+  REQUIRE(!est.cost.cost.empty());
+  CHECK(est.cost.total() > 0.0);  // the floor's tests are charged, though no cell of the top grid was
+  const auto [lo, hi] = std::minmax_element(est.cost.cost.begin(), est.cost.cost.end());
+  CHECK(*lo > 0.0);
+  CHECK(*hi == doctest::Approx(*lo).epsilon(1e-12));
+}
