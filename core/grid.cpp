@@ -658,8 +658,9 @@ class AdaptiveBuilder {
     return index;
   }
 
- private:
- public:
+  // The bounds of primitive `id` (computed once, in the constructor).
+  const Bounds3& bounds(std::uint32_t id) const { return bounds_[id]; }
+
   // Splits `list`, the primitives of box `cell`, into those large in it
   // (header: kLargeSpan) and the others, when the large ones are at most
   // `max_large` and the others' box is at most half the cell's on some
@@ -806,7 +807,7 @@ Grid build_adaptive_grid(const Database& db, const GridParams& params) {
                           large);
     if (!large.empty()) {
       Bounds3 reach;
-      for (const std::uint32_t id : small) reach.extend(db.primitives[id].bounds());
+      for (const std::uint32_t id : small) reach.extend(builder.bounds(id));
       const Bounds3 padded = pad_box(reach);
       top.bounds = Bounds3{max(top.bounds.lower, padded.lower), min(top.bounds.upper, padded.upper)};
     }
