@@ -394,6 +394,7 @@ using CellPairs = std::vector<std::pair<std::uint32_t, std::uint32_t>>;
 struct PairRuns {
   std::vector<CellPairs> runs;
   std::vector<CellSpans> spans;
+  std::vector<std::size_t> work;  // each run's cells tested (for_each_overlapped_cell's poll count)
 };
 
 // Primitives per run of collect_pairs below which it stays on the calling
@@ -424,7 +425,7 @@ void collect_pairs(const GridInfo& info, const double eps[3], const Database& db
   const std::size_t nruns = threads > 1 ? std::clamp<std::size_t>(count / kPrimitivesPerRun, 1, 4 * threads) : 1;
   out.runs.resize(nruns);
   if (out.spans.size() < nruns) out.spans.resize(nruns);
-  std::vector<std::size_t> work(nruns, 0);
+  out.work.assign(nruns, 0);
   auto run = [&](std::size_t k) {
     const std::size_t begin = count * k / nruns, end = count * (k + 1) / nruns;
     CellPairs& pairs = out.runs[k];
@@ -433,7 +434,7 @@ void collect_pairs(const GridInfo& info, const double eps[3], const Database& db
     for (std::size_t i = begin; i < end; ++i) {
       if ((i & 4095u) == 0) poll();
       const std::uint32_t id = id_at(i);
-      for_each_overlapped_cell(info, eps, db.primitives[id], bounds_of(id), out.spans[k], work[k],
+      for_each_overlapped_cell(info, eps, db.primitives[id], bounds_of(id), out.spans[k], out.work[k],
                                [&](int x, int y, int z) { pairs.emplace_back(info.cell_index(x, y, z), id); }, poll);
     }
   };
