@@ -184,7 +184,8 @@ template <int KX, int KY, int KZ>
   block_triangle(b, l, v0, v1, v2);
   if (u == 0.0f || v == 0.0f || e == 0.0f) [[unlikely]]
     return intersect_triangle_axes<KX, KY, KZ>(ray, w, v0, v1, v2, tmax, hit);
-  return finish_watertight(ray, w, u, v, e, mx, my, mz, w.sz * za, w.sz * zb, w.sz * zc, tmax, v0, v1, v2, hit);
+  // A grid's lists hold no degenerate triangle (build_grid): no check.
+  return finish_watertight<false>(ray, w, u, v, e, mx, my, mz, w.sz * za, w.sz * zb, w.sz * zc, tmax, v0, v1, v2, hit);
 }
 
 /// Lane by lane, the largest magnitude of three lanes' values (exact).

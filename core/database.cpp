@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/intersect.h"
 #include "core/stop.h"
 
 namespace raynode::core {
@@ -61,10 +62,9 @@ double orient2d(const double* a, const double* b, const double* c) {
   return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
 }
 
-bool triangle_area_is_zero(const Vec3& a, const Vec3& b, const Vec3& c) {
-  const Vec3 v[3] = {a, b, c};
-  return is_degenerate_polygon(v, 3);
-}
+// The tracer's own criterion (intersect.h), so that a database made with
+// drop_degenerate holds no triangle the tracer would refuse.
+bool triangle_area_is_zero(const Vec3& a, const Vec3& b, const Vec3& c) { return triangle_is_degenerate(a, b, c); }
 
 /// Projects the polygon onto the plane its Newell normal is most nearly
 /// perpendicular to, turned so that it runs counter-clockwise: p = x0 y0 x1
@@ -253,6 +253,7 @@ Database make_database(const Scene& scene, const DatabaseParams& params) {
   db.has_view = scene.has_view;
   db.background = scene.background;
   db.shape_count = scene.shapes.size();
+  db.degenerate_triangles_dropped = params.drop_degenerate;
   db.primitives.reserve(scene.shapes.size());
 
   std::vector<std::uint32_t> tris;

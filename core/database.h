@@ -78,6 +78,11 @@ struct Database {
   Bounds3 bounds;               ///< of all primitives
   std::size_t shape_count = 0;  ///< NFF shapes it was made from
   std::size_t dropped_degenerate_triangles = 0;  ///< zero-area pieces of polygons
+  /// True when no triangle is degenerate (triangle_is_degenerate, intersect.h):
+  /// make_database dropped them (DatabaseParams::drop_degenerate). Otherwise
+  /// build_grid leaves them out of its lists, and either way the grid's
+  /// walk never tests them.
+  bool degenerate_triangles_dropped = false;
 
   DatabaseCounts counts() const;
   /// Bytes of primitive, normal and material records (the paper's "database size").

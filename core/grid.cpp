@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/intersect.h"
 #include "core/stop.h"
 
 #include <tbb/parallel_for.h>
@@ -461,6 +462,23 @@ void pairs_to_csr(std::span<const CellPairs> runs, std::uint32_t ncells, std::ve
     for (const auto& pr : pairs) primitives[fill[pr.first]++] = pr.second;
 }
 
+// The ids a grid lists, ascending: every primitive but the degenerate
+// triangles (triangle_is_degenerate), which no ray hits, so that the walk
+// need not check its would-be hits for them. Checked only when the database
+// may hold some (not made with DatabaseParams::drop_degenerate).
+std::vector<std::uint32_t> listed_ids(const Database& db) {
+  std::vector<std::uint32_t> ids;
+  ids.reserve(db.primitives.size());
+  for (std::uint32_t i = 0; i < db.primitives.size(); ++i) {
+    const Primitive& p = db.primitives[i];
+    if (!db.degenerate_triangles_dropped && p.kind == PrimitiveKind::kTriangle &&
+        triangle_is_degenerate(p.vertex(0), p.vertex(1), p.vertex(2)))
+      continue;
+    ids.push_back(i);
+  }
+  return ids;
+}
+
 Grid build_uniform_grid(const Database& db, const GridParams& params) {
   Grid grid;
   GridInfo& info = grid.info;
@@ -481,8 +499,9 @@ Grid build_uniform_grid(const Database& db, const GridParams& params) {
                                    info.res[0], info.res[1], info.res[2]));
   };
   PairRuns pairs;
+  const std::vector<std::uint32_t> ids = listed_ids(db);
   collect_pairs(
-      info, eps, db, db.primitives.size(), [](std::size_t i) { return std::uint32_t(i); },
+      info, eps, db, ids.size(), [&](std::size_t i) { return ids[i]; },
       [&](std::uint32_t id) { return db.primitives[id].bounds(); }, poll_stop, pairs);
   pairs_to_csr(pairs.runs, ncells, grid.cell_start, grid.cell_primitives);
   compute_empty_distance(grid, params.skip_empty);
@@ -795,8 +814,7 @@ Grid build_adaptive_grid(const Database& db, const GridParams& params) {
   Grid grid;
   GridInfo top;
   top.bounds = grid_bounds(db);
-  std::vector<std::uint32_t> all(db.primitives.size()), small, large;
-  for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
+  std::vector<std::uint32_t> all = listed_ids(db), small, large;
   AdaptiveBuilder builder(db, params, grid);
   if (params.resolution[0] > 0 && params.resolution[1] > 0 && params.resolution[2] > 0) {
     for (int a = 0; a < 3; ++a) top.res[a] = std::min(params.resolution[a], params.max_resolution);

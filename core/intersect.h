@@ -72,10 +72,11 @@ struct TriangleHit {
 };
 
 /// True when the triangle spans (nearly) zero area: |(v1-v0) x (v2-v0)| <=
-/// 1e-7 x (longest edge)^2, in double. The same criterion as
-/// is_degenerate_polygon (scene.h), so the triangles make_database drops
-/// (DatabaseParams::drop_degenerate) are exactly the ones this rejects.
-/// Called by the triangle test only for would-be hits (rare path).
+/// 1e-7 x (longest edge)^2, in double (is_degenerate_polygon's criterion,
+/// scene.h). The triangles make_database drops (DatabaseParams::
+/// drop_degenerate) and build_grid leaves out of its lists are exactly the
+/// ones this rejects; the triangle tests outside the grid's walk call it
+/// for would-be hits (rare path).
 inline bool triangle_is_degenerate(const Vec3& v0, const Vec3& v1, const Vec3& v2) {
   const double e1[3] = {double(v1.x) - v0.x, double(v1.y) - v0.y, double(v1.z) - v0.z};
   const double e2[3] = {double(v2.x) - v0.x, double(v2.y) - v0.y, double(v2.z) - v0.z};
@@ -191,6 +192,9 @@ namespace detail {
 /// the plane (triangle_plane_t) and the hit counts only if that t exceeds
 /// its own, far smaller, bound: an eye in a polygon's plane does not see it
 /// at t = 1e-7, and a 1e8 ground seen from 1e-2 away is hit where it is.
+/// `kCheckDegenerate` false: the caller's triangles are never degenerate (a
+/// grid's lists: build_grid leaves those out), and the check is skipped.
+template <bool kCheckDegenerate = true>
 [[gnu::always_inline]] inline bool finish_watertight(const Ray& ray, const WatertightRay& w, float u, float v, float e,
                                                      float max_xt, float max_yt, float max_zr, float az, float bz, float cz,
                                                      float tmax, const Vec3& v0, const Vec3& v1, const Vec3& v2,
@@ -208,7 +212,8 @@ namespace detail {
     if (!refine_unreliable_t(ray, t_err, v0, v1, v2, t)) return false;
   }
   if (!(t > ray.tmin && t < tmax)) return false;
-  if (triangle_is_degenerate(v0, v1, v2)) [[unlikely]] return false;
+  if constexpr (kCheckDegenerate)
+    if (triangle_is_degenerate(v0, v1, v2)) [[unlikely]] return false;
   hit.t = t;
   hit.u = v * inv_det;  // weight of v1
   hit.v = e * inv_det;  // weight of v2
@@ -296,7 +301,7 @@ namespace detail {
 /// that the per-primitive loop it is called from stays small and keeps its
 /// state in registers. Lanes as there: U = (u, v, e), X and Y the sheared
 /// vertices, ckz their z relative to the origin, sz = 1/d_z.
-template <int KX, int KY, int KZ>
+template <int KX, int KY, int KZ, bool kCheckDegenerate>
 [[gnu::always_inline]] inline bool finish_triangle_lanes(const Ray& ray, const WatertightRay& w, const float* v, __m128 U,
                                              __m128 X, __m128 Y, __m128 ckz, __m128 sz, float tmax,
                                              TriangleHit& hit) {
@@ -313,8 +318,9 @@ template <int KX, int KY, int KZ>
   alignas(16) float uve[4], z[4];
   _mm_store_ps(uve, U);
   _mm_store_ps(z, _mm_mul_ps(sz, ckz));
-  return finish_watertight(ray, w, uve[0], uve[1], uve[2], max_abs(X), max_abs(Y), max_abs(ckz), z[0], z[1], z[2], tmax,
-                           Vec3{v[0], v[1], v[2]}, Vec3{v[3], v[4], v[5]}, Vec3{v[6], v[7], v[8]}, hit);
+  return finish_watertight<kCheckDegenerate>(ray, w, uve[0], uve[1], uve[2], max_abs(X), max_abs(Y), max_abs(ckz), z[0],
+                                             z[1], z[2], tmax, Vec3{v[0], v[1], v[2]}, Vec3{v[3], v[4], v[5]},
+                                             Vec3{v[6], v[7], v[8]}, hit);
 }
 
 }  // namespace detail
@@ -328,8 +334,10 @@ template <int KX, int KY, int KZ>
 /// test's order (no FMA: -ffp-contract=off), so the answer, t and the
 /// barycentrics are bit-identical to intersect_triangle_axes (an edge
 /// function exactly 0 goes to it for the double fallback). Without SSE2 it
-/// is intersect_triangle_axes.
-template <int KX, int KY, int KZ>
+/// is intersect_triangle_axes. `kCheckDegenerate` false skips the
+/// degeneracy check of a would-be hit (finish_watertight): for a grid's
+/// lists, which hold no degenerate triangle.
+template <int KX, int KY, int KZ, bool kCheckDegenerate = true>
 [[gnu::always_inline]] inline bool intersect_triangle_record_axes(const Ray& ray, const WatertightRay& w,
                                                                  const TriangleRayLanes& lanes, const float* v,
                                                                  float tmax, TriangleHit& hit) {
@@ -351,7 +359,7 @@ template <int KX, int KY, int KZ>
   const __m128 U = _mm_sub_ps(_mm_mul_ps(x2, y1), _mm_mul_ps(y2, x1));
   const int neg = _mm_movemask_ps(_mm_cmplt_ps(U, zero)) & 7, pos = _mm_movemask_ps(_mm_cmpgt_ps(U, zero)) & 7;
   if (neg && pos) return false;
-  return detail::finish_triangle_lanes<KX, KY, KZ>(ray, w, v, U, X, Y, ckz, lanes.sz, tmax, hit);
+  return detail::finish_triangle_lanes<KX, KY, KZ, kCheckDegenerate>(ray, w, v, U, X, Y, ckz, lanes.sz, tmax, hit);
 #else
   return intersect_triangle_axes<KX, KY, KZ>(ray, w, Vec3{v[0], v[1], v[2]}, Vec3{v[3], v[4], v[5]},
                                              Vec3{v[6], v[7], v[8]}, tmax, hit);

@@ -153,8 +153,10 @@ namespace detail {
 
 /// intersect_primitive with the triangle test's axis permutation fixed at
 /// compile time (KX, KY, KZ as in intersect_triangle_axes), so that a whole
-/// traversal dispatches on the permutation once per ray.
-template <int KX, int KY, int KZ>
+/// traversal dispatches on the permutation once per ray. `kListed`: `p`
+/// comes from a grid's lists, which hold no degenerate triangle
+/// (build_grid), so a would-be hit is not checked for one.
+template <int KX, int KY, int KZ, bool kListed = false>
 [[gnu::always_inline]] inline bool intersect_primitive_axes(const Primitive& p, std::uint32_t id, const Ray& ray,
                                                             const WatertightRay& w, const TriangleRayLanes& lanes,
                                                             Hit& hit, TraversalStats& stats) {
@@ -167,7 +169,7 @@ template <int KX, int KY, int KZ>
   }
   ++stats.triangle_tests;
   TriangleHit th;
-  if (!intersect_triangle_record_axes<KX, KY, KZ>(ray, w, lanes, p.data, hit.t, th)) return false;
+  if (!intersect_triangle_record_axes<KX, KY, KZ, !kListed>(ray, w, lanes, p.data, hit.t, th)) return false;
   hit.t = th.t;
   hit.u = th.u;
   hit.v = th.v;
@@ -699,7 +701,7 @@ struct CellVisit {
         ++stats.mailbox_skips;
         return;
       }
-      found |= intersect_primitive_axes<KX, KY, KZ>(view->primitive(id), id, *ray, *w, *lanes, hit, stats);
+      found |= intersect_primitive_axes<KX, KY, KZ, true>(view->primitive(id), id, *ray, *w, *lanes, hit, stats);
     };
     std::uint32_t empty;
     if constexpr (has_packed_cells<View>) {

@@ -84,6 +84,7 @@ std::vector<RegionDatabase> make_region_databases(const core::Database& db, cons
     rd.db.has_view = db.has_view;
     rd.db.background = db.background;
     rd.db.shape_count = db.shape_count;
+    rd.db.degenerate_triangles_dropped = db.degenerate_triangles_dropped;
     rd.global = members[r];
     rd.shared.resize(rd.global.size());
     rd.db.primitives.reserve(rd.global.size());

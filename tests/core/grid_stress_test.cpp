@@ -259,53 +259,65 @@ TEST_CASE("grid: triangles with coincident vertices never hit and degenerate tri
   };
   for (const auto& d : coincident) s.add_polygon(d, 3);
   for (const auto& d : collinear) s.add_polygon(d, 3);
-  // Kept (drop_degenerate = false): the grid builds and lists them.
+  // Kept (drop_degenerate = false): the database holds them, and both grids
+  // build without listing them (no ray can hit them, and the grid's walk does
+  // not check its would-be hits for them).
   DatabaseParams keep;
   keep.drop_degenerate = false;
-  const Built b(s, GridParams{}, keep);
   const std::size_t degenerate = std::size(coincident) + std::size(collinear);
-  REQUIRE(b.db.primitives.size() == good + degenerate);
-  REQUIRE(b.grid.cell_start.size() == b.grid.info.cell_count() + 1);
-  CHECK(b.grid.cell_start.back() == b.grid.cell_primitives.size());
-  std::vector<bool> listed(b.db.primitives.size(), false);
-  for (std::uint32_t id : b.grid.cell_primitives) {
-    REQUIRE(id < b.db.primitives.size());
-    listed[id] = true;
-  }
-  CHECK(std::count(listed.begin(), listed.end(), true) == std::ptrdiff_t(listed.size()));
-  // Rays aimed at points of the coincident-vertex triangles, and along their
-  // edges, never report them.
-  Rng rng(37);
-  TraversalScratch scratch;
-  Failures bad;
-  std::size_t rays = 0;
-  for (std::size_t i = good; i < good + std::size(coincident); ++i) {
-    const Primitive& p = b.db.primitives[i];
-    for (int n = 0; n < 300; ++n) {
-      const float a = uniform(rng, 0, 1), c = uniform(rng, 0, 1 - a);
-      const Vec3 target = p.vertex(0) + (p.vertex(1) - p.vertex(0)) * a + (p.vertex(2) - p.vertex(0)) * c;
-      const Vec3 o = target + random_unit(rng) * 3.0f;
-      std::vector<Ray> tries = {{o, target - o, 0.0f, kInfinity}};
-      for (int k = 0; k < 3; ++k) {
-        const Vec3 along = p.vertex((k + 1) % 3) - p.vertex(k);
-        if (dot(along, along) > 0.0f) tries.push_back({p.vertex(k) - along, along, 0.0f, kInfinity});
-      }
-      for (const Ray& r : tries) {
-        ++rays;
-        Hit h;
-        if (intersect_closest(b.view(), r, h, scratch) && h.primitive >= good) bad.add(str(r) + ": " + str(h));
-        if (!intersect_closest(b.view(), r, h, scratch) && intersect_any(b.view(), r, scratch))
-          bad.add(str(r) + ": any-hit found what closest did not");
+  for (const GridKind kind : {GridKind::kUniform, GridKind::kAdaptive}) {
+    CAPTURE(grid_kind_name(kind));
+    GridParams gp;
+    gp.kind = kind;
+    const Built b(s, gp, keep);
+    REQUIRE(b.db.primitives.size() == good + degenerate);
+    CHECK_FALSE(b.db.degenerate_triangles_dropped);
+    REQUIRE(b.grid.cell_start.size() == b.grid.info.cell_count() + 1);
+    CHECK(b.grid.cell_start.back() == b.grid.cell_primitives.size());
+    std::vector<bool> listed(b.db.primitives.size(), false);
+    for (std::uint32_t id : b.grid.cell_primitives) {
+      REQUIRE(id < b.db.primitives.size());
+      listed[id] = true;
+    }
+    CHECK(std::count(listed.begin(), listed.begin() + std::ptrdiff_t(good), true) == std::ptrdiff_t(good));
+    CHECK(std::count(listed.begin() + std::ptrdiff_t(good), listed.end(), true) == 0);
+    // Rays aimed at points of the coincident-vertex triangles, and along
+    // their edges, never report them, through the lists and the packed cells.
+    Rng rng(37);
+    TraversalScratch scratch;
+    Failures bad;
+    std::size_t rays = 0;
+    for (std::size_t i = good; i < good + std::size(coincident); ++i) {
+      const Primitive& p = b.db.primitives[i];
+      for (int n = 0; n < 300; ++n) {
+        const float a = uniform(rng, 0, 1), c = uniform(rng, 0, 1 - a);
+        const Vec3 target = p.vertex(0) + (p.vertex(1) - p.vertex(0)) * a + (p.vertex(2) - p.vertex(0)) * c;
+        const Vec3 o = target + random_unit(rng) * 3.0f;
+        std::vector<Ray> tries = {{o, target - o, 0.0f, kInfinity}};
+        for (int k = 0; k < 3; ++k) {
+          const Vec3 along = p.vertex((k + 1) % 3) - p.vertex(k);
+          if (dot(along, along) > 0.0f) tries.push_back({p.vertex(k) - along, along, 0.0f, kInfinity});
+        }
+        for (const Ray& r : tries) {
+          for (const DirectView& view : {b.view(), b.packed_view()}) {
+            ++rays;
+            Hit h;
+            if (intersect_closest(view, r, h, scratch) && h.primitive >= good) bad.add(str(r) + ": " + str(h));
+            if (!intersect_closest(view, r, h, scratch) && intersect_any(view, r, scratch))
+              bad.add(str(r) + ": any-hit found what closest did not");
+          }
+        }
       }
     }
+    INFO("rays hitting a degenerate triangle:" << bad.first);
+    CHECK(rays >= 3000);
+    CHECK(bad.count == 0);
   }
-  INFO("rays hitting a degenerate triangle:" << bad.first);
-  CHECK(rays >= 1500);
-  CHECK(bad.count == 0);
   // Dropped by default, and counted: then no ray can meet them.
   const Database dropped = make_database(s);
   CHECK(dropped.primitives.size() == good);
   CHECK(dropped.dropped_degenerate_triangles == degenerate);
+  CHECK(dropped.degenerate_triangles_dropped);
 }
 
 // The collinear-triangle bug of intersect_triangle (intersect_test.cpp)
