@@ -284,10 +284,11 @@ void choose_grid_resolution(const Bounds3& bounds, std::size_t primitive_count, 
 /// adaptive as build_adaptive_grid) but its degenerate triangles
 /// (triangle_is_degenerate, which no ray hits; a database from make_database
 /// holds none by default), so that the walk need not check a would-be hit
-/// for one. An empty database gives a 1x1x1 grid with no references. Deterministic (same input, same lists, whatever the
-/// threads): the cells' primitive lists and the sub-grid choices are made on
-/// all of oneTBB's threads (as Embree builds its BVH) once a grid lists more
-/// than 2048 primitives, then merged in primitive and cell order.
+/// for one. An empty database gives a 1x1x1 grid with no references.
+/// Deterministic (same input, same lists, whatever the threads): the
+/// cells' primitive lists and the sub-grid choices are made on all of
+/// oneTBB's threads (as Embree builds its BVH) once a grid lists more than
+/// 2048 primitives, then merged in primitive and cell order.
 Grid build_grid(const Database& db, const GridParams& params = {});
 
 /// The padded world box of the uniform grid and of the adaptive grid's
