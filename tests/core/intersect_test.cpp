@@ -5,6 +5,7 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -122,6 +123,77 @@ TEST_CASE("intersect: a small sphere far away is hit at the right distance (stab
   REQUIRE(sphere({{0, 0.005f, 0}, {0, 0, 1}, 0, kInfinity}, {0, 0, 1e4f}, 0.01f, t));
   CHECK(t == doctest::Approx(1e4 - std::sqrt(1e-4 - 2.5e-5)).epsilon(1e-7));
   CHECK_FALSE(sphere({{0, 0.0101f, 0}, {0, 0, 1}, 0, kInfinity}, {0, 0, 1e4f}, 0.01f, t));
+}
+
+// intersect_sphere's quadratic without its early outs (a sphere behind the
+// origin, a nearer root past tmax): what they must never change.
+bool sphere_full_quadratic(const Ray& ray, const Vec3& center, float radius, float tmax, float& t_out) {
+  const double fx = double(ray.origin.x) - center.x, fy = double(ray.origin.y) - center.y,
+               fz = double(ray.origin.z) - center.z;
+  const double dx = ray.direction.x, dy = ray.direction.y, dz = ray.direction.z;
+  const double a = dx * dx + dy * dy + dz * dz;
+  const double b = -(fx * dx + fy * dy + fz * dz);
+  const double s = b / a;
+  const double lx = fx + s * dx, ly = fy + s * dy, lz = fz + s * dz;
+  const double r = double(radius);
+  const double disc = a * (r * r - (lx * lx + ly * ly + lz * lz));
+  if (disc < 0.0) return false;
+  const double c = fx * fx + fy * fy + fz * fz - r * r;
+  const double q = b + std::copysign(std::sqrt(disc), b);
+  double t0 = (q != 0.0) ? c / q : 0.0, t1 = q / a;
+  if (t0 > t1) std::swap(t0, t1);
+  if (q == 0.0) t0 = t1;
+  for (const double tt : {t0, t1}) {
+    if (tt > ray.tmin && tt < tmax) {
+      t_out = static_cast<float>(tt);
+      return t_out > ray.tmin && t_out < tmax;
+    }
+  }
+  return false;
+}
+
+TEST_CASE("intersect: the sphere test's early outs answer as its full quadratic, to the bit") {
+  // Spheres 1e-6 to 1e3 across, 1e-3 to 1e6 away, ahead of and behind the
+  // origin, rays from outside and inside, grazing ones, and tmax before,
+  // at and past the roots (also a hair past the nearer root).
+  Rng rng(71);
+  std::size_t hits = 0, misses = 0, differ = 0;
+  std::string first;
+  for (int i = 0; i < 200000; ++i) {
+    const float radius = std::pow(10.0f, uniform(rng, -6, 3));
+    const float distance = radius * std::pow(10.0f, uniform(rng, -0.5f, 6));  // below 1: inside
+    const Vec3 center = random_in_cube(rng, 10 * distance);
+    const Vec3 dir = random_unit(rng);
+    Vec3 side = cross(dir, std::fabs(dir.x) < 0.9f ? Vec3{1, 0, 0} : Vec3{0, 1, 0});
+    side = side * (1.0f / std::sqrt(dot(side, side)));
+    const double offset = (i % 3 == 0) ? 1.0 + (i % 2 ? 1 : -1) * std::pow(10.0, uniform(rng, -15, -3))
+                                       : uniform(rng, 0, 1.2f);
+    const Vec3 aim = center + side * float(radius * offset);
+    const float behind = (i % 4 == 1) ? -1.0f : 1.0f;  // every fourth ray starts past the sphere
+    const Vec3 origin = aim - dir * (behind * distance);
+    const Vec3 d = dir * std::pow(10.0f, uniform(rng, -3, 3));
+    const float scale = std::sqrt(dot(d, d));
+    const float tmin = (i % 7 == 3) ? -distance / scale : 0.0f;
+    float tmax = kInfinity;
+    if (i % 5 == 1) tmax = uniform(rng, 0, 2) * distance / scale;
+    float t_near = 0;
+    if (i % 5 >= 2 && sphere_full_quadratic({origin, d, tmin, kInfinity}, center, radius, kInfinity, t_near)) {
+      // tmax within a few float steps of the nearer root, either side.
+      const std::uint32_t bits = std::bit_cast<std::uint32_t>(t_near);
+      tmax = t_near > 0 ? std::bit_cast<float>(bits + std::uint32_t(i % 7) - 3u) : t_near;
+    }
+    const Ray r{origin, d, tmin, tmax};
+    float t_fast = 0, t_full = 0;
+    const bool fast = intersect_sphere(r, center, radius, r.tmax, t_fast);
+    const bool full = sphere_full_quadratic(r, center, radius, r.tmax, t_full);
+    (full ? hits : misses) += 1;
+    if (fast != full || (fast && std::bit_cast<std::uint32_t>(t_fast) != std::bit_cast<std::uint32_t>(t_full)))
+      if (!differ++) first = std::to_string(i);
+  }
+  INFO("first differing ray: " << first);
+  CHECK(differ == 0);
+  CHECK(hits > 20000);
+  CHECK(misses > 20000);
 }
 
 TEST_CASE("intersect: a sphere behind the ray origin is missed") {
