@@ -111,6 +111,7 @@ void run_bench(const BenchOptions& o) {
     set_grid_density(gp, o.density);
     gp.skip_empty = o.skip_empty;
     gp.kind = grid_kind_for(o.grid);
+    gp = core::grid_params_for_packed_cells(gp, o.pack_min);
     core::Grid grid;
     // Both builds run on all the host's threads (the grid's and Embree's BVH,
     // committed in its constructor, both with oneTBB); the best of --repeat.

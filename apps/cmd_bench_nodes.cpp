@@ -180,7 +180,7 @@ void run_bench_nodes(const NodesBenchOptions& o) {
   core::GridParams gp;
   gp.skip_empty = o.run.skip_empty;
   gp.kind = grid_kind_for(o.run.grid);
-  const core::Grid grid = core::build_grid(db, gp);
+  const core::Grid grid = core::build_grid(db, core::grid_params_for_packed_cells(gp, o.pack_min));
   // The model clock checked on this scene once, so that T_1 and every T_p use the same unit costs.
   const ModelCalibration calibration = calibrate_model_clock(spec.machine, spec.render, db, grid, o.run.calibrate);
   fmt::print(report, "{} {} {}x{}, network {}, node memory {}, clock {}, submaps {}, work grants {}, requests {}, {}, {} "

@@ -113,8 +113,13 @@ Accelerator build_accelerator(const RenderOptions& o, const core::Database& db) 
   if (o.accel == "embree") {
     a.embree = std::make_unique<core::EmbreeScene>(db);
   } else {
-    a.grid = core::build_grid(db, gp);
-    if (o.pack_min > 0 && !modes::is_node_mode(modes::parse_mode(o.mode))) a.blocks = core::build_cell_blocks(db, *a.grid, o.pack_min, core::PackKinds::kTrianglesAndSpheres);
+    // The cells the tracer packs: the in-process modes' (--pack-cells, on by
+    // default), svm's only when asked (render_request).
+    const bool node_mode = modes::is_node_mode(modes::parse_mode(o.mode));
+    const std::uint32_t packed = node_mode ? (o.pack_given ? o.pack_min : 0) : o.pack_min;
+    a.grid = core::build_grid(db, core::grid_params_for_packed_cells(gp, packed));
+    if (o.pack_min > 0 && !node_mode)
+      a.blocks = core::build_cell_blocks(db, *a.grid, o.pack_min, core::PackKinds::kTrianglesAndSpheres);
   }
   a.build_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return a;

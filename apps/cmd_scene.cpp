@@ -8,6 +8,7 @@
 #include "apps/run_info.h"
 #include "apps/output_files.h"
 #include "apps/watchdog.h"
+#include "core/cell_blocks.h"
 #include "core/database.h"
 #include "core/grid.h"
 #include "core/nff.h"
@@ -53,6 +54,7 @@ void run_info(const InfoOptions& o) {
   if (!o.grid.empty()) {
     core::GridParams gp;
     gp.kind = o.grid == "uniform" ? core::GridKind::kUniform : core::GridKind::kAdaptive;
+    gp = core::grid_params_for_packed_cells(gp, core::kDefaultPackMin);  // render's default: packed cells
     const auto start = std::chrono::steady_clock::now();
     const core::Grid g = core::build_grid(db, gp);
     const double build_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -98,8 +100,9 @@ void register_scene_commands(CLI::App& app) {
   add_json_option(*ci, info->json, "The counts and sizes");
   // A flag, so that `--grid SCENE` never takes the scene as its value.
   ci->add_flag("--grid{adaptive}", info->grid,
-               "Also build the grid and print its structure (levels, cells and leaf cells per level, references, "
-               "bytes, build time): --grid or --grid=adaptive, or --grid=uniform")
+               "Also build the grid that render's default mode builds (packed cells) and print its structure "
+               "(levels, cells and leaf cells per level, references, bytes, build time): --grid or --grid=adaptive, "
+               "or --grid=uniform")
       ->check(CLI::IsMember({"adaptive", "uniform"}));
   ci->callback([info] { run_info(*info); });
 

@@ -55,6 +55,7 @@ void run_validate(const ValidateOptions& o) {
   set_grid_density(gp, o.density);
   gp.skip_empty = o.skip_empty;
   gp.kind = grid_kind_for(o.grid);
+  gp = core::grid_params_for_packed_cells(gp, o.params.pack_min);
   const core::Grid grid = core::build_grid(db, gp);
   const core::EmbreeScene embree(db);
   const core::ValidateReport r = [&] {

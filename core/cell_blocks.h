@@ -19,8 +19,9 @@
 // operations in its order (no FMA: -ffp-contract=off); a lane whose ray line
 // crosses its triangle finishes in scalar on the same values, and an edge
 // function exactly 0 goes to intersect_triangle_axes itself. Lanes are taken
-// in list order with the running nearest t as the bound, so the hit (t, u, v
-// and primitive, ties to the earlier listed) is the one the list walk finds.
+// in list order with the running nearest t as the bound (tie_bound), so the
+// hit (t, u, v and primitive, an exact tie to the lowest id) is the one the
+// list walk finds.
 // A packed triangle cell does not use the ray's mailbox: testing a block
 // again costs less than looking its ids up, and a second test of a
 // primitive can never replace the hit (its t is not below the nearest found
@@ -28,6 +29,7 @@
 // survivors through the mailbox to the exact test (intersect_cell_spheres).
 #pragma once
 
+#include <bit>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
@@ -196,8 +198,22 @@ template <int KX, int KY, int KZ>
   return ab > c ? ab : c;
 }
 
+/// The bound the nearest-hit query tests primitive `id` against, given the
+/// nearest hit so far (t, primitive): t, or for an id below `primitive`
+/// the next float above t, so that a hit at exactly t goes to the lowest
+/// id whatever cells and lists a grid tests the primitives in: the tied
+/// primitives pass through the hit's point, so the cell holding it lists
+/// them all, and the walk stops only after that cell. Images are then the
+/// same over any grid (adaptive or uniform, of any density, or a dataflow
+/// region's). `primitive` is 0 while there is no hit (no id is below it);
+/// t > ray.tmin >= 0 once there is one.
+[[gnu::always_inline]] inline float tie_bound(float t, std::uint32_t primitive, std::uint32_t id) {
+  return id < primitive ? std::bit_cast<float>(std::bit_cast<std::uint32_t>(t) + 1) : t;
+}
+
 /// Tests a packed cell's triangles in list order against `ray`; on a hit
-/// nearer than hit.t, updates `hit` (closest) and returns true. `any`: stop
+/// nearer than hit.t, or as near with a lower id (tie_bound; hit_primitive
+/// 0 while there is no hit), updates `hit` (closest) and returns true. `any`: stop
 /// at the first hit in (ray.tmin, hit.t). Adds the triangles tested to
 /// `triangle_tests`.
 template <int KX, int KY, int KZ, bool kAny>
@@ -225,8 +241,9 @@ template <int KX, int KY, int KZ, bool kAny>
       const std::uint32_t l = std::uint32_t(__builtin_ctz(bits));
       bits &= bits - 1;
       TriangleHit th;
+      const float tmax = kAny ? hit_t : tie_bound(hit_t, hit_primitive, b.primitive[l]);
       if (!finish_lane<KX, KY, KZ>(ray, w, b, l, f[0][l], f[1][l], f[2][l], f[3][l], f[4][l], f[5][l], f[6][l],
-                                   f[7][l], f[8][l], hit_t, th))
+                                   f[7][l], f[8][l], tmax, th))
         continue;
       hit_t = th.t;
       hit_u = th.u;
@@ -240,8 +257,8 @@ template <int KX, int KY, int KZ, bool kAny>
 }
 
 /// Tests a packed sphere cell's spheres in list order against `ray`, with
-/// intersect_sphere's answers: on a hit nearer than hit_t, updates the hit
-/// (u = v = 0) and returns true. `any`: stop at the first hit in
+/// intersect_sphere's answers: on a hit nearer than hit_t, or as near with
+/// a lower id (tie_bound), updates the hit (u = v = 0) and returns true. `any`: stop at the first hit in
 /// (ray.tmin, hit_t). Adds the spheres tested to `sphere_tests`.
 ///
 /// Each block first goes through a conservative float cull, eight lanes at
@@ -296,7 +313,8 @@ template <bool kAny, class MailboxProbe>
         continue;
       }
       float t;
-      if (!intersect_sphere(ray, Vec3{b.center[0][l], b.center[1][l], b.center[2][l]}, b.radius[l], hit_t, t))
+      const float tmax = kAny ? hit_t : tie_bound(hit_t, hit_primitive, b.primitive[l]);
+      if (!intersect_sphere(ray, Vec3{b.center[0][l], b.center[1][l], b.center[2][l]}, b.radius[l], tmax, t))
         continue;
       hit_t = t;
       hit_u = 0;

@@ -681,6 +681,15 @@ class AdaptiveBuilder {
   // The bounds of primitive `id` (computed once, in the constructor).
   const Bounds3& bounds(std::uint32_t id) const { return bounds_[id]; }
 
+  // `ids`' primitives counted for the resolution rule: a triangle as
+  // GridParams::triangle_weight, any other primitive as 1.
+  double weighted_count(std::span<const std::uint32_t> ids) const {
+    if (params_.triangle_weight == 1.0f) return double(ids.size());
+    std::size_t triangles = 0;
+    for (const std::uint32_t id : ids) triangles += db_.primitives[id].kind == PrimitiveKind::kTriangle;
+    return double(ids.size() - triangles) + double(params_.triangle_weight) * double(triangles);
+  }
+
   // Splits `list`, the primitives of box `cell`, into those large in it
   // (header: kLargeSpan) and the others, when the large ones are at most
   // `max_large` and the others' box is at most half the cell's on some
@@ -732,7 +741,8 @@ class AdaptiveBuilder {
   bool make_sub_grid(const GridInfo& info, std::uint32_t c, std::span<const std::uint32_t> list, GridInfo& sub) const {
     sub.bounds = tight_box(info, cell_box(info, c), list);
     const double n = double(list.size());
-    choose_adaptive_resolution(sub.bounds, double(params_.density) * n, kMaxSubGridResolution, sub.res);
+    choose_adaptive_resolution(sub.bounds, double(params_.density) * weighted_count(list), kMaxSubGridResolution,
+                               sub.res);
     const double m = double(sub.cell_count());
     if (m < 2) return false;
     set_cell_size(sub);
@@ -830,7 +840,7 @@ Grid build_adaptive_grid(const Database& db, const GridParams& params) {
       const Bounds3 padded = pad_box(reach);
       top.bounds = Bounds3{max(top.bounds.lower, padded.lower), min(top.bounds.upper, padded.upper)};
     }
-    choose_adaptive_resolution(top.bounds, double(params.top_density) * double(large.empty() ? all.size() : small.size()),
+    choose_adaptive_resolution(top.bounds, double(params.top_density) * builder.weighted_count(large.empty() ? all : small),
                                params.max_resolution, top.res);
   }
   set_cell_size(top);

@@ -63,7 +63,8 @@
 // resolutions follow Kalojanov's rule, cells = lambda * n with cubic-ish
 // cells: lambda_top = top_density (2) cells per primitive for the top grid,
 // lambda = density (2) per listed primitive for a sub-grid (at most
-// kMaxSubGridResolution per axis). A cell gets a sub-grid only where it
+// kMaxSubGridResolution per axis), a triangle counting triangle_weight of
+// a primitive (a quarter where packed cells test eight at once). A cell gets a sub-grid only where it
 // pays by the model: n >= sub_grid_min (128: a leaf's triangles are tested
 // 8 at a time in packed cells, so below it C_enter + k * C_step is not won
 // back; 32 made Tetra9 1.5-2x slower), at least two sub-cells, and
@@ -136,7 +137,29 @@ struct GridParams {
   /// grid, which then covers only the others' box (above); false keeps
   /// every primitive in the top grid.
   bool large_beside_top = true;
+  /// Adaptive only: what a triangle counts for in the resolution rule,
+  /// cells = density x (spheres + cones + triangle_weight x triangles), at
+  /// every level. 1 (the default) for a tracer that tests each listed
+  /// triangle on its own; kPackedTriangleWeight where the tracer tests
+  /// packed cells' triangles a block at a time (cell_blocks.h,
+  /// grid_params_for_packed_cells), so fewer, fuller cells pay.
+  float triangle_weight = 1.0f;
 };
+
+/// GridParams::triangle_weight of a tracer that tests packed triangle
+/// cells (--pack-cells) eight triangles a block: at the default density,
+/// half a cell per triangle. Chosen with `raynode bench accel --grid-density`
+/// over the triangle scenes of the accel corpus, flat from 0.125 to 0.25
+/// and slower above (docs/results.md, "Fewer, fuller cells for packed
+/// triangles"); listed triangles, tested one by one, keep 1.
+inline constexpr float kPackedTriangleWeight = 0.25f;
+
+/// `params` with triangle_weight kPackedTriangleWeight when `pack_min` > 0
+/// (the tracer packs cells of at least pack_min triangles), else as given.
+inline GridParams grid_params_for_packed_cells(GridParams params, std::uint32_t pack_min) {
+  if (pack_min > 0) params.triangle_weight = kPackedTriangleWeight;
+  return params;
+}
 
 /// Adaptive: the most cells of a sub-grid per axis.
 inline constexpr int kMaxSubGridResolution = 64;

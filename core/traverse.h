@@ -153,23 +153,24 @@ namespace detail {
 
 /// intersect_primitive with the triangle test's axis permutation fixed at
 /// compile time (KX, KY, KZ as in intersect_triangle_axes), so that a whole
-/// traversal dispatches on the permutation once per ray. `kListed`: `p`
+/// traversal dispatches on the permutation once per ray, and a hit taken
+/// below `tmax` (hit.t, or tie_bound's). `kListed`: `p`
 /// comes from a grid's lists, which hold no degenerate triangle
 /// (build_grid), so a would-be hit is not checked for one.
 template <int KX, int KY, int KZ, bool kListed = false>
 [[gnu::always_inline]] inline bool intersect_primitive_axes(const Primitive& p, std::uint32_t id, const Ray& ray,
                                                             const WatertightRay& w, const TriangleRayLanes& lanes,
-                                                            Hit& hit, TraversalStats& stats) {
+                                                            float tmax, Hit& hit, TraversalStats& stats) {
   if (p.kind != PrimitiveKind::kTriangle) [[unlikely]] {
     ++(p.kind == PrimitiveKind::kSphere ? stats.sphere_tests : stats.cone_tests);
-    const float t = intersect_curved(p, ray, hit.t);
+    const float t = intersect_curved(p, ray, tmax);
     if (t == kInfinity) return false;  // a hit lies below t_max, never at +inf
     hit = Hit{t, id, 0, 0};
     return true;
   }
   ++stats.triangle_tests;
   TriangleHit th;
-  if (!intersect_triangle_record_axes<KX, KY, KZ, !kListed>(ray, w, lanes, p.data, hit.t, th)) return false;
+  if (!intersect_triangle_record_axes<KX, KY, KZ, !kListed>(ray, w, lanes, p.data, tmax, th)) return false;
   hit.t = th.t;
   hit.u = th.u;
   hit.v = th.v;
@@ -197,7 +198,7 @@ template <class F>
 inline bool intersect_primitive(const Primitive& p, std::uint32_t id, const Ray& ray, const WatertightRay& w, Hit& hit,
                                 TraversalStats& stats) {
   return detail::with_axes(w, [&]<int KX, int KY, int KZ>() {
-    return detail::intersect_primitive_axes<KX, KY, KZ>(p, id, ray, w, TriangleRayLanes(ray, w), hit, stats);
+    return detail::intersect_primitive_axes<KX, KY, KZ>(p, id, ray, w, TriangleRayLanes(ray, w), hit.t, hit, stats);
   });
 }
 
@@ -701,7 +702,8 @@ struct CellVisit {
         ++stats.mailbox_skips;
         return;
       }
-      found |= intersect_primitive_axes<KX, KY, KZ, true>(view->primitive(id), id, *ray, *w, *lanes, hit, stats);
+      const float tmax = kAny ? hit.t : tie_bound(hit.t, hit.primitive, id);
+      found |= intersect_primitive_axes<KX, KY, KZ, true>(view->primitive(id), id, *ray, *w, *lanes, tmax, hit, stats);
     };
     std::uint32_t empty;
     if constexpr (has_packed_cells<View>) {
@@ -741,6 +743,7 @@ template <int KX, int KY, int KZ, class View>
                                    TraversalScratch& scratch) {
   const TriangleRayLanes lanes(ray, w);
   CellVisit<KX, KY, KZ, View, false> visit{&view, &ray, &w, &lanes, scratch.mailbox.probe(), hit_out};
+  visit.hit.primitive = 0;  // no hit yet: no id is below it (tie_bound)
   walk_cells(view, ray, visit);
   scratch.stats += visit.stats;
   hit_out = visit.hit;
@@ -760,9 +763,10 @@ template <int KX, int KY, int KZ, class View>
 
 }  // namespace detail
 
-/// Nearest hit of `ray` in (ray.tmin, ray.tmax). Each primitive is tested at
-/// most once per ray (mailbox); the walk stops as soon as the best hit lies
-/// within the current cell. Returns hit.found(). Precondition:
+/// Nearest hit of `ray` in (ray.tmin, ray.tmax), an exact tie in t going to
+/// the lowest primitive id (tie_bound), so that every grid gives the same
+/// hit. Each primitive is tested at most once per ray (mailbox); the walk
+/// stops as soon as the best hit lies within the current cell. Returns hit.found(). Precondition:
 /// is_valid_ray(ray) (callers reject NaN rays before).
 template <class View>
 bool intersect_closest(const View& view, const Ray& ray, Hit& hit, TraversalScratch& scratch) {
