@@ -28,7 +28,7 @@ done
 python3 - "$raw" "$out" <<'PY'
 import csv, json, sys
 keys = ["grid_rays_per_s", "embree_rays_per_s", "grid_over_embree_time", "grid_build_s", "embree_build_s",
-        "tests_per_ray", "cells_per_ray", "packed_sphere_blocks"]
+        "tests_per_ray", "cells_per_ray", "packed_sphere_blocks", "grid_over_embree_memory"]
 with open(sys.argv[2], "w", newline="") as f:
     w = csv.writer(f)
     w.writerow(["binary", "round", "scene"] + keys)

@@ -531,6 +531,33 @@ TEST_CASE("adaptive grid: cells crowded by large overlapping spheres stay leaves
   CHECK(build_grid(make_database(random_scene(21, 600, 0, 0, 0.05f)), p).sub_grid_count() >= 1);
 }
 
+TEST_CASE("adaptive grid: a triangle counts triangle_weight of a primitive in the resolution rule, a sphere whole") {
+  // Top cells, from the cube-root rule: about density x (spheres + cones +
+  // weight x triangles), give or take each axis's rounding.
+  const auto top_cells = [](const Scene& s, float weight) {
+    GridParams p = adaptive();
+    p.triangle_weight = weight;
+    const Database db = make_database(s);
+    return double(build_grid(db, p).info.cell_count());
+  };
+  const Scene triangles = random_scene(41, 4000, 0, 0, 0.01f);
+  const Scene spheres = random_scene(42, 0, 2000, 0, 0.01f);
+  const Scene mixed = random_scene(43, 2000, 2000, 0, 0.01f);
+  const double tri_ratio = top_cells(triangles, kPackedTriangleWeight) / top_cells(triangles, 1.0f);
+  CHECK(tri_ratio == doctest::Approx(kPackedTriangleWeight).epsilon(0.25));
+  CHECK(top_cells(spheres, kPackedTriangleWeight) == top_cells(spheres, 1.0f));
+  // 2000 + 500 of 4000 units.
+  CHECK(top_cells(mixed, kPackedTriangleWeight) / top_cells(mixed, 1.0f) == doctest::Approx(0.625).epsilon(0.2));
+  // The weight is the adaptive grid's: the paper's uniform grid keeps its resolution.
+  GridParams uniform;
+  uniform.triangle_weight = kPackedTriangleWeight;
+  const Database db = make_database(triangles);
+  CHECK(build_grid(db, uniform).info.cell_count() == build_grid(db, GridParams{}).info.cell_count());
+  // grid_params_for_packed_cells sets it only for a tracer that packs.
+  CHECK(grid_params_for_packed_cells(adaptive(), 0).triangle_weight == 1.0f);
+  CHECK(grid_params_for_packed_cells(adaptive(), kDefaultPackMin).triangle_weight == kPackedTriangleWeight);
+}
+
 TEST_CASE("grid build: the same lists on one thread and on four (runs of primitives merged in order)") {
   // Each build runs in an arena of a fixed size, so the many-thread path is
   // taken on any machine (an arena may have more slots than cores).
