@@ -62,15 +62,14 @@ inline float next_toward_zero(float x) {
 // open interval (tmin, tmax) of a query as tnear = nextafter(tmin, +inf),
 // tfar = nextafter(tmax, 0) (open_interval_*), and the cone test, whose
 // interval is open, gets it back as (nextafter(tnear, -inf),
-// nextafter(tfar, +inf)): the same interval as the grid's. A NaN bound
-// stays NaN (Embree then reports no hit, as the grid does).
+// nextafter(tfar, +inf)): the same interval as the grid's. The bounds
+// are not NaN (check_traceable has thrown for a NaN interval).
 inline float open_interval_near(float tmin) {
-  if (tmin != tmin) return tmin;
   // Not a subnormal: Embree's SIMD code slows down by ~20% (rings:4) on a
   // subnormal tnear. Hits at 0 < t < FLT_MIN (1.2e-38) are given up.
   return std::max(next_up(tmin), std::numeric_limits<float>::min());
 }
-inline float open_interval_far(float tmax) { return tmax != tmax ? tmax : next_toward_zero(tmax); }
+inline float open_interval_far(float tmax) { return next_toward_zero(tmax); }
 
 bool cone_hit(const ConeData* cd, unsigned prim_id, const RTCRay& r, float& t) {
   const Primitive& p = cd->db->primitives[(*cd->ids)[prim_id]];

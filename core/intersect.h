@@ -392,13 +392,13 @@ inline bool intersect_sphere(const Ray& ray, const Vec3& center, float radius, f
   const double dx = ray.direction.x, dy = ray.direction.y, dz = ray.direction.z;
   const double a = dx * dx + dy * dy + dz * dz;
   const double b = -(fx * dx + fy * dy + fz * dz);  // -b/2 of the usual form
-  const double c = fx * fx + fy * fy + fz * fz - double(radius) * radius;
+  const double r = double(radius);
+  const double c = fx * fx + fy * fy + fz * fz - r * r;
   // Both roots (c/q and q/a below) are <= 0 when b < 0 <= c: the sphere is
   // behind an origin outside it, and no division is needed.
   if (b < 0.0 && c >= 0.0 && ray.tmin >= 0.0f) return false;
   const double s = b / a;
   const double lx = fx + s * dx, ly = fy + s * dy, lz = fz + s * dz;  // closest point - center
-  const double r = double(radius);
   const double disc = a * (r * r - (lx * lx + ly * ly + lz * lz));
   if (disc < 0.0) return false;
   const double q = b + std::copysign(std::sqrt(disc), b);
