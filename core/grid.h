@@ -64,10 +64,11 @@
 // cells: lambda_top = top_density (2) cells per primitive for the top grid,
 // lambda = density (2) per listed primitive for a sub-grid (at most
 // kMaxSubGridResolution per axis), a triangle counting triangle_weight of
-// a primitive (a quarter where packed cells test eight at once). A cell gets a sub-grid only where it
-// pays by the model: n >= sub_grid_min (128: a leaf's triangles are tested
-// 8 at a time in packed cells, so below it C_enter + k * C_step is not won
-// back; 32 made Tetra9 1.5-2x slower), at least two sub-cells, and
+// a primitive (a quarter where packed cells test eight at once). A cell
+// gets a sub-grid only where it pays by the model: n >= sub_grid_min (128:
+// a leaf's triangles are tested 8 at a time in packed cells, so below it
+// C_enter + k * C_step is not won back; 32 made Tetra9 1.5-2x slower), at
+// least two sub-cells, and
 // r <= kSubGridGain * n (the sub-grid separates the primitives;
 // overlapping large primitives stay in one leaf, so references cannot
 // multiply level by level), and k * r <= sub_grid_walk_share * n with

@@ -766,8 +766,9 @@ template <int KX, int KY, int KZ, class View>
 /// Nearest hit of `ray` in (ray.tmin, ray.tmax), an exact tie in t going to
 /// the lowest primitive id (tie_bound), so that every grid gives the same
 /// hit. Each primitive is tested at most once per ray (mailbox); the walk
-/// stops as soon as the best hit lies within the current cell. Returns hit.found(). Precondition:
-/// is_valid_ray(ray) (callers reject NaN rays before).
+/// stops as soon as the best hit lies within the current cell. Returns
+/// hit.found(). Precondition: is_valid_ray(ray) (callers reject NaN rays
+/// before).
 template <class View>
 bool intersect_closest(const View& view, const Ray& ray, Hit& hit, TraversalScratch& scratch) {
   hit = Hit{};
