@@ -102,6 +102,10 @@ struct Accelerator {
   double build_s = 0;                         ///< wall seconds to build it
 };
 
+/// The least triangle count of a packed cell in `o`'s node modes: svm
+/// pages the paper's object lists (0) unless --pack-cells was given.
+std::uint32_t node_pack_min(const RenderOptions& o) { return o.pack_given ? o.pack_min : 0; }
+
 /// Builds --accel's structure for `o`; the grid's packed cells only for the
 /// in-process modes (the node modes trace the paper's per-primitive lists).
 Accelerator build_accelerator(const RenderOptions& o, const core::Database& db) {
@@ -113,11 +117,10 @@ Accelerator build_accelerator(const RenderOptions& o, const core::Database& db) 
   if (o.accel == "embree") {
     a.embree = std::make_unique<core::EmbreeScene>(db);
   } else {
-    // The cells the tracer packs: the in-process modes' (--pack-cells, on by
-    // default), svm's only when asked (render_request).
+    // The grid for the cells the tracer packs: the in-process modes'
+    // (--pack-cells, on by default), the node modes' node_pack_min.
     const bool node_mode = modes::is_node_mode(modes::parse_mode(o.mode));
-    const std::uint32_t packed = node_mode ? (o.pack_given ? o.pack_min : 0) : o.pack_min;
-    a.grid = core::build_grid(db, core::grid_params_for_packed_cells(gp, packed));
+    a.grid = core::build_grid(db, core::grid_params_for_packed_cells(gp, node_mode ? node_pack_min(o) : o.pack_min));
     if (o.pack_min > 0 && !node_mode)
       a.blocks = core::build_cell_blocks(db, *a.grid, o.pack_min, core::PackKinds::kTrianglesAndSpheres);
   }
@@ -158,7 +161,7 @@ modes::RunRequest render_request(const RenderOptions& o, const Accelerator& acce
   req.blocks = accel.blocks ? &*accel.blocks : nullptr;
   if (node_mode) {
     req.nodes = node_spec(o);
-    req.nodes.pack_min = o.pack_given ? o.pack_min : 0;  // svm pages the paper's object lists unless asked
+    req.nodes.pack_min = node_pack_min(o);
     if (o.page_fetch == "get" && o.transport != "mpi")
       throw UsageError("--page-fetch get reads home pages one-sidedly over MPI: it needs --transport mpi");
     req.nodes.fetch_by_get = o.page_fetch == "get";
