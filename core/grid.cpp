@@ -579,7 +579,14 @@ class AdaptiveBuilder {
   AdaptiveBuilder(const Database& db, const GridParams& params, Grid& grid)
       : db_(db), params_(params), grid_(grid), mag_eps_(magnitude_eps(grid_bounds(db))) {
     bounds_.reserve(db.primitives.size());
-    for (const Primitive& p : db.primitives) bounds_.push_back(p.bounds());
+    weights_.reserve(db.primitives.size());
+    for (const Primitive& p : db.primitives) {
+      bounds_.push_back(p.bounds());
+      weights_.push_back(p.kind == PrimitiveKind::kTriangle ? params.triangle_weight
+                         : p.kind == PrimitiveKind::kCone   ? params.cone_weight
+                                                            : 1.0f);
+      max_weight_ = std::max(max_weight_, weights_.back());
+    }
   }
 
   // Builds the grid `info` over `prims` (ascending ids) at `level`, with
@@ -627,7 +634,9 @@ class AdaptiveBuilder {
     std::vector<Child> children;
     if (level < std::uint32_t(params_.max_depth))
       for (std::uint32_t c = 0; c < ncells; ++c)
-        if (local.cell_start[c + 1] - local.cell_start[c] >= params_.sub_grid_min) children.push_back({c, {}, {}, {}});
+        if (heavy_enough(std::span(local.cell_primitives)
+                             .subspan(local.cell_start[c], local.cell_start[c + 1] - local.cell_start[c])))
+          children.push_back({c, {}, {}, {}});
     std::vector<char> refines(children.size(), 0);
     auto decide = [&](std::size_t i) {
       Child& child = children[i];
@@ -682,12 +691,19 @@ class AdaptiveBuilder {
   const Bounds3& bounds(std::uint32_t id) const { return bounds_[id]; }
 
   // `ids`' primitives counted for the resolution rule: a triangle as
-  // GridParams::triangle_weight, any other primitive as 1.
+  // GridParams::triangle_weight, a cone as cone_weight, a sphere as 1.
   double weighted_count(std::span<const std::uint32_t> ids) const {
-    if (params_.triangle_weight == 1.0f) return double(ids.size());
-    std::size_t triangles = 0;
-    for (const std::uint32_t id : ids) triangles += db_.primitives[id].kind == PrimitiveKind::kTriangle;
-    return double(ids.size() - triangles) + double(params_.triangle_weight) * double(triangles);
+    double sum = 0;
+    for (const std::uint32_t id : ids) sum += weights_[id];
+    return sum;
+  }
+
+  // Whether a cell listing `ids` weighs enough to be offered a sub-grid
+  // (GridParams::sub_grid_min); the sum is skipped where the count alone
+  // decides.
+  bool heavy_enough(std::span<const std::uint32_t> ids) const {
+    if (ids.empty() || double(ids.size()) * max_weight_ < params_.sub_grid_min) return false;
+    return weighted_count(ids) >= params_.sub_grid_min;
   }
 
   // Splits `list`, the primitives of box `cell`, into those large in it
@@ -817,6 +833,8 @@ class AdaptiveBuilder {
   Grid& grid_;
   double mag_eps_;
   std::vector<Bounds3> bounds_;  // of each primitive, by id
+  std::vector<float> weights_;   // of each primitive in the resolution rule, by id
+  float max_weight_ = 0;         // the largest of weights_
   PairRuns pairs_;  // scratch of build: (cell, primitive) pairs
 };
 

@@ -63,12 +63,15 @@
 // resolutions follow Kalojanov's rule, cells = lambda * n with cubic-ish
 // cells: lambda_top = top_density (2) cells per primitive for the top grid,
 // lambda = density (2) per listed primitive for a sub-grid (at most
-// kMaxSubGridResolution per axis), a triangle counting triangle_weight of
-// a primitive (a quarter where packed cells test eight at once). A cell
-// gets a sub-grid only where it pays by the model: n >= sub_grid_min (128:
-// a leaf's triangles are tested 8 at a time in packed cells, so below it
-// C_enter + k * C_step is not won back; 32 made Tetra9 1.5-2x slower), at
-// least two sub-cells, and
+// kMaxSubGridResolution per axis), a primitive counting as its test's cost:
+// a triangle triangle_weight (a quarter where packed cells test eight at
+// once), a sphere 1, a cone cone_weight (4). A cell
+// gets a sub-grid only where it pays by the model: its primitives weigh
+// at least sub_grid_min (32) in units of one listed triangle's test,
+// counted as the resolution rule counts them (below it C_enter + k *
+// C_step is not won back; a packed triangle weighs a quarter, so a packed
+// leaf needs 128 triangles: at 64, Balls4 tessellated traced 1.1x slower;
+// a cone weighs kConeWeight), at least two sub-cells, and
 // r <= kSubGridGain * n (the sub-grid separates the primitives;
 // overlapping large primitives stay in one leaf, so references cannot
 // multiply level by level), and k * r <= sub_grid_walk_share * n with
@@ -110,6 +113,14 @@ enum class GridKind : std::uint8_t {
 /// "uniform" or "adaptive".
 const char* grid_kind_name(GridKind kind);
 
+/// GridParams::cone_weight's default: a ray/cone test costs about four
+/// ray/triangle or ray/sphere tests (the model clock's fit, core/cost_model.h:
+/// 28.2 ns against 6.5 and 6.6), so a cone gets four times a triangle's
+/// cells. Measured with `raynode bench accel` over the scenes with cones
+/// (Rings, Tree, Lattice, Jacks): 2, 4, 6 and 8 all beat 1, by 5% at the
+/// geometric mean, and 4 to 8 are alike.
+inline constexpr float kConeWeight = 4.0f;
+
 /// Grid build options.
 struct GridParams {
   /// Uniform by default here (the paper's grid, what library callers and
@@ -125,8 +136,10 @@ struct GridParams {
   bool skip_empty = true;
   /// Adaptive only: top grid cells per primitive (lambda_top; cost model above).
   float top_density = 2.0f;
-  /// Adaptive only: a cell listing fewer primitives stays a leaf (n_min).
-  std::uint32_t sub_grid_min = 128;
+  /// Adaptive only: a cell whose primitives weigh less, counted as the
+  /// resolution rule counts them (triangle_weight, cone_weight), stays a
+  /// leaf (n_min, in listed triangle tests).
+  float sub_grid_min = 32.0f;
   /// Adaptive only: the deepest sub-grid level (the top grid is level 0).
   int max_depth = 2;
   /// Adaptive only: a cell gets a sub-grid only if the references a ray
@@ -139,12 +152,15 @@ struct GridParams {
   /// every primitive in the top grid.
   bool large_beside_top = true;
   /// Adaptive only: what a triangle counts for in the resolution rule,
-  /// cells = density x (spheres + cones + triangle_weight x triangles), at
-  /// every level. 1 (the default) for a tracer that tests each listed
+  /// cells = density x (spheres + cone_weight x cones + triangle_weight x
+  /// triangles), at every level, and against sub_grid_min. 1 (the default) for a tracer that tests each listed
   /// triangle on its own; kPackedTriangleWeight where the tracer tests
   /// packed cells' triangles a block at a time (cell_blocks.h,
   /// grid_params_for_packed_cells), so fewer, fuller cells pay.
   float triangle_weight = 1.0f;
+  /// Adaptive only: what a cone counts for, in the resolution rule and
+  /// against sub_grid_min (kConeWeight: its test's cost in triangle tests).
+  float cone_weight = kConeWeight;
 };
 
 /// GridParams::triangle_weight of a tracer that tests packed triangle
@@ -323,7 +339,6 @@ Bounds3 grid_bounds(const Database& db);
 /// `b` (or [-1,1]^3 when empty) grown by max(1e-4 of its largest extent,
 /// 16 ulps of its largest coordinate) on every side.
 Bounds3 pad_box(Bounds3 b);
-
 
 /// Fills grid.empty_distance from grid.cell_start (see Grid); with
 /// skip_empty false, 0 for a non-empty cell and 1 for an empty one.

@@ -531,6 +531,31 @@ TEST_CASE("adaptive grid: cells crowded by large overlapping spheres stay leaves
   CHECK(build_grid(make_database(random_scene(21, 600, 0, 0, 0.05f)), p).sub_grid_count() >= 1);
 }
 
+TEST_CASE("adaptive grid: a cone counts cone_weight in the resolution rule, and sub_grid_min weighs the cell's primitives") {
+  const auto cells = [](const Database& db, GridParams p) { return double(build_grid(db, p).info.cell_count()); };
+  // About density x 4 x cones top cells, against density x cones at weight 1.
+  const Database cones = make_database(random_scene(44, 0, 0, 3000, 0.01f));
+  GridParams whole = adaptive();
+  whole.cone_weight = 1.0f;
+  CHECK(adaptive().cone_weight == kConeWeight);
+  CHECK(cells(cones, adaptive()) / cells(cones, whole) == doctest::Approx(kConeWeight).epsilon(0.25));
+  // One top cell over a few small primitives: offered a sub-grid only when
+  // they weigh sub_grid_min (32) or more.
+  const auto refined = [](const Scene& s, float triangle_weight, float cone_weight) {
+    GridParams p = adaptive();
+    p.resolution[0] = p.resolution[1] = p.resolution[2] = 1;
+    p.triangle_weight = triangle_weight;
+    p.cone_weight = cone_weight;
+    return build_grid(make_database(s), p).sub_grid_count() > 0;
+  };
+  const Scene ten_cones = random_scene(45, 0, 0, 10, 0.02f);  // weighs 40, or 10 counted whole
+  CHECK(refined(ten_cones, 1.0f, kConeWeight));
+  CHECK_FALSE(refined(ten_cones, 1.0f, 1.0f));
+  const Scene triangles = random_scene(46, 60, 0, 0, 0.02f);  // weighs 60 listed, 15 packed
+  CHECK(refined(triangles, 1.0f, kConeWeight));
+  CHECK_FALSE(refined(triangles, kPackedTriangleWeight, kConeWeight));
+}
+
 TEST_CASE("adaptive grid: a triangle counts triangle_weight of a primitive in the resolution rule, a sphere whole") {
   // Top cells, from the cube-root rule: about density x (spheres + cones +
   // weight x triangles), give or take each axis's rounding.

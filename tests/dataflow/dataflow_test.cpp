@@ -39,7 +39,7 @@ DataflowParams params_for(const core::RenderParams& rp, std::uint32_t nodes) {
   return p;
 }
 
-core::GridParams grid_params(core::GridKind kind, std::uint32_t sub_grid_min = 128) {
+core::GridParams grid_params(core::GridKind kind, float sub_grid_min = 128) {
   core::GridParams g;
   g.kind = kind;
   g.sub_grid_min = sub_grid_min;
