@@ -29,6 +29,7 @@ namespace {
 struct BenchOptions {
   std::vector<std::string> scenes;
   int tessellate = 0;
+  double floor = 0;         ///< --floor K (0: none)
   core::ViewOverride view;  ///< --eye, --at, --up, --fov
   int width = 512, height = 512;
   int repeat = 3;
@@ -105,6 +106,7 @@ void run_bench(const BenchOptions& o) {
   for (const std::string& spec : o.scenes) {
     core::SceneSource source = tracing_source(spec, o.tessellate);  // the rays render traces
     source.view = o.view;
+    source.floor = o.floor;
     const core::Scene scene = core::load_scene(source);
     const core::Database db = core::make_database(scene);
     core::GridParams gp;
@@ -154,6 +156,7 @@ void run_bench(const BenchOptions& o) {
     const double memory_ratio = embree_bytes ? double(grid_bytes) / double(embree_bytes) : 0.0;
     nlohmann::json j = {{"scene", spec},
                         {"tessellate", o.tessellate},
+                        {"floor", o.floor},
                         {"primitives", db.primitives.size()},
                         {"grid_resolution", {grid.info.res[0], grid.info.res[1], grid.info.res[2]}},
                         {"grid_references", grid.references()},
@@ -212,6 +215,7 @@ void register_bench_command(CLI::App& app) {
   c->add_option("scenes", o->scenes, "Scenes (NFF or mesh files, or SPD name[:size])")->required();
   c->add_option("--tessellate,-t", o->tessellate, "Tessellate spheres and cones (SPD -t R)")
       ->check(CLI::Range(0, 1000));
+  add_floor_option(*c, o->floor);
   add_camera_options(*c, o->view);
   CLI::Option* w = c->add_option("--width", o->width,
                                  "Image width for primary rays (given alone, the height keeps the view's aspect "

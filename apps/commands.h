@@ -34,8 +34,13 @@ class Interrupted : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// Adds the SCENE positional, --tessellate, --scale and --translate to a subcommand.
+/// Adds the SCENE positional, --tessellate, --scale, --translate and --floor to a subcommand.
 void add_scene_options(CLI::App& cmd, core::SceneSource& source);
+
+/// Adds --floor K (core::SceneSource::floor, K in [1, 1e6]: a stadium floor
+/// K times the scene's width, core::add_stadium_floor); `floor` must outlive
+/// the parse.
+void add_floor_option(CLI::App& cmd, double& floor);
 
 /// Adds --eye X,Y,Z, --at X,Y,Z, --up X,Y,Z and --fov DEG to a subcommand:
 /// parts of the view that replace the scene's (core::ViewOverride; scene

@@ -49,6 +49,14 @@ void add_scene_options(CLI::App& cmd, core::SceneSource& source) {
          "Move the whole scene by X,Y,Z world units (after --scale) [default: 0,0,0]")
       ->delimiter(',')
       ->expected(3);
+  add_floor_option(cmd, source.floor);
+}
+
+void add_floor_option(CLI::App& cmd, double& floor) {
+  cmd.add_option("--floor", floor,
+                 "Add a square floor K times the scene's width under it, along the view's up (a stadium "
+                 "variant: a small object in a huge scene), before --scale and --translate [default: none]")
+      ->check(CLI::Range(1.0, 1e6));
 }
 
 void add_camera_options(CLI::App& cmd, core::ViewOverride& view) {

@@ -848,15 +848,27 @@ Grid build_adaptive_grid(const Database& db, const GridParams& params) {
     for (int a = 0; a < 3; ++a) top.res[a] = std::min(params.resolution[a], params.max_resolution);
   } else {
     // The scene's few large primitives (a floor, a wall) beside the top
-    // grid, which then covers only the others' box (header comment).
-    if (params.large_beside_top)
-      builder.split_large(top.bounds, all, std::min(double(kMaxTopLarge), kLargeShare * double(all.size())), small,
-                          large);
-    if (!large.empty()) {
-      Bounds3 reach;
-      for (const std::uint32_t id : small) reach.extend(builder.bounds(id));
-      const Bounds3 padded = pad_box(reach);
-      top.bounds = Bounds3{max(top.bounds.lower, padded.lower), min(top.bounds.upper, padded.upper)};
+    // grid, which then covers only the others' box (header comment); then
+    // again within that box, for scenes of nested scales (an object on its
+    // own ground, on a stadium floor), while the leaf stays within
+    // kMaxTopLarge.
+    if (params.large_beside_top) {
+      std::vector<std::uint32_t> rest = all, found;
+      for (;;) {
+        const double budget =
+            std::min(double(kMaxTopLarge - large.size()), kLargeShare * double(rest.size()));
+        if (budget < 1) break;
+        builder.split_large(top.bounds, rest, budget, small, found);
+        if (found.empty()) break;
+        large.insert(large.end(), found.begin(), found.end());
+        Bounds3 reach;
+        for (const std::uint32_t id : small) reach.extend(builder.bounds(id));
+        const Bounds3 padded = pad_box(reach);
+        top.bounds = Bounds3{max(top.bounds.lower, padded.lower), min(top.bounds.upper, padded.upper)};
+        rest.swap(small);
+      }
+      small.swap(rest);
+      std::sort(large.begin(), large.end());
     }
     choose_adaptive_resolution(top.bounds, double(params.top_density) * builder.weighted_count(large.empty() ? all : small),
                                params.max_resolution, top.res);

@@ -47,9 +47,12 @@
 // primitives large in the scene's box (a floor, the walls of a room),
 // when the others' box is at most half the scene's on some axis, are
 // listed in one leaf beside the top grid, which every ray tests first, and
-// the top grid covers only the others' padded box (pad_box). So a mesh on
-// a stadium floor or in a room gets the top grid's cells over the mesh,
-// and a ray that only meets the floor costs a test and no walk. Cost model, per ray crossing a cell that lists n
+// the top grid covers only the others' padded box (pad_box); the split is
+// repeated in that box while it finds large primitives and the leaf stays
+// within kMaxTopLarge (nested scales: an object on its own ground on a
+// stadium floor). So a mesh on a stadium floor or in a room gets the top
+// grid's cells over the mesh, and a ray that only meets the floor costs a
+// test and no walk. Cost model, per ray crossing a cell that lists n
 // primitives (times in units of one primitive test):
 //   leaf:      C_leaf = n
 //   sub-grid:  C_sub  ~ C_enter + k * (C_step + r),

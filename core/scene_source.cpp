@@ -43,6 +43,7 @@ Scene load_scene(const SceneSource& source) {
     s = make_spd_scene(p);
   }
   apply_view_override(s, source.view);
+  if (source.floor != 0) add_stadium_floor(s, source.floor);
   transform_scene(s, source.eye_origin ? eye_at_origin_after(s, source.transform) : source.transform);
   return s;
 }

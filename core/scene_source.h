@@ -27,6 +27,9 @@ struct SceneSource {
   int tessellate = 0;  ///< --tessellate R (0 = keep curved primitives)
   SceneTransform transform;  ///< --scale / --translate, applied after tessellation
   ViewOverride view;         ///< --eye / --at / --up / --fov, applied before `transform`
+  /// --floor K: a stadium floor K times the scene's width under it
+  /// (add_stadium_floor, after `view`, before `transform`); 0 = none.
+  double floor = 0;
   /// Then move the scene so that its eye lies at the origin (eye_at_origin,
   /// scene_transform.h): the rendering commands' space, composed with
   /// `transform` and rounded once (eye_at_origin_after). Off for the
@@ -38,7 +41,7 @@ struct SceneSource {
 bool is_scene_file(const std::string& spec);
 
 /// Loads the scene, tessellates it, applies the view override
-/// (apply_view_override), then `transform` (transform_scene), or, with
+/// (apply_view_override), adds the floor (add_stadium_floor), then `transform` (transform_scene), or, with
 /// `eye_origin`, `transform` and eye_at_origin's translation as one
 /// (eye_at_origin_after). A mesh's notes
 /// (defaults filled in, things skipped: mesh_file.h) go to stderr, one line

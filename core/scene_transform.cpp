@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -128,6 +129,41 @@ SceneTransform eye_at_origin(const Scene& scene) {
   SceneTransform t;
   t.translate = {-double(eye.x), -double(eye.y), -double(eye.z)};
   return t;
+}
+
+void add_stadium_floor(Scene& scene, double factor) {
+  if (!(factor >= 1.0 && factor <= 1e6))
+    throw std::invalid_argument(fmt::format("--floor must be between 1 and 1e6, got {}", factor));
+  const Bounds3 b = scene.bounds();
+  if (b.empty()) throw std::invalid_argument("--floor: the scene has no primitive to put a floor under");
+  const Vec3 up = scene.view.up;
+  int k = 0;  // the axis nearest the view's up
+  for (int a = 1; a < 3; ++a)
+    if (std::fabs(up[a]) > std::fabs(up[k])) k = a;
+  const int u = (k + 1) % 3, v = (k + 2) % 3;
+  const Vec3 e = b.extent();
+  const double size = std::max(std::max({double(e.x), double(e.y), double(e.z)}), std::numeric_limits<double>::min());
+  const double half = 0.5 * factor * size;
+  // Below the bounds along -up: under the lowest point when up points along
+  // +axis k, above the highest when along -axis k.
+  const double level = up[k] >= 0 ? double(b.lower[k]) - 0.01 * size : double(b.upper[k]) + 0.01 * size;
+  const double cu = 0.5 * (double(b.lower[u]) + b.upper[u]), cv = 0.5 * (double(b.lower[v]) + b.upper[v]);
+  Vec3 corners[4];  // counter-clockwise seen from the up side
+  const double su[4] = {-1, 1, 1, -1}, sv[4] = {-1, -1, 1, 1};
+  for (int i = 0; i < 4; ++i) {
+    double q[3];
+    q[k] = level, q[u] = cu + su[i] * half, q[v] = cv + sv[i] * half;
+    for (int a = 0; a < 3; ++a)
+      if (!(std::fabs(q[a]) <= double(std::numeric_limits<float>::max())))
+        throw std::invalid_argument(fmt::format("--floor {}: a corner of the floor, {}, does not fit in a float",
+                                                factor, q[a]));
+    corners[up[k] >= 0 ? i : 3 - i] = Vec3{float(q[0]), float(q[1]), float(q[2])};
+  }
+  Material grey;
+  grey.color = Vec3{0.6f, 0.6f, 0.6f};
+  grey.kd = 0.8f;
+  scene.materials.push_back(grey);
+  scene.add_polygon(corners, 4);
 }
 
 }  // namespace raynode::core

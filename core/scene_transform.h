@@ -54,4 +54,14 @@ SceneTransform eye_at_origin(const Scene& scene);
 /// transform_scene(scene, t) would throw.
 SceneTransform eye_at_origin_after(const Scene& scene, const SceneTransform& t);
 
+/// Appends a "stadium" floor to `scene`: one square polygon, `factor` times
+/// the scene's largest extent on a side, centred under the scene's bounds,
+/// normal to the world axis nearest the view's up, a hundredth of that
+/// extent below the bounds (along -up), in a diffuse grey material of its
+/// own. The grid benchmarks' "small object in a huge scene" (a mesh on a
+/// floor 100x or 1000x its size). Lights and view are kept. Throws
+/// std::invalid_argument when `factor` is not in [1, 1e6], the scene has no
+/// primitive, or a corner does not fit in a float.
+void add_stadium_floor(Scene& scene, double factor);
+
 }  // namespace raynode::core

@@ -155,6 +155,25 @@ TEST_CASE("adaptive grid: a small mesh on a floor 300x its size agrees with brut
   check_random_rays(c, 6, 1000, Bounds3{{-250, -250, 5.0f}, {250, 250, 50}});
 }
 
+TEST_CASE("adaptive grid: nested scales (a mesh on its own ground on a stadium floor) keep both floors beside the top grid") {
+  Scene s = mesh_on_floor(12, 600, 4.0f);  // the mesh on a ground 8 units wide
+  const Vec3 stadium[4] = {{-1200, -1200, -2}, {1200, -1200, -2}, {1200, 1200, -2}, {-1200, 1200, -2}};
+  s.add_polygon(stadium, 4);
+  const Built b(s, adaptive());
+  // The stadium is large in the scene's box, the ground in what is left:
+  // both beside the top grid, which covers the mesh's box alone.
+  const std::uint32_t large = SubGridTables{b.grid.sub_grids, b.grid.cell_entries}.top_large_leaf();
+  REQUIRE(large != kNoLeaf);
+  const auto n = std::uint32_t(b.db.primitives.size());
+  CHECK(leaf_list(b.grid, large) == std::vector<std::uint32_t>{n - 4, n - 3, n - 2, n - 1});
+  for (int a = 0; a < 3; ++a) {
+    CHECK(b.grid.info.bounds.lower[a] > -3.0f);
+    CHECK(b.grid.info.bounds.upper[a] < 3.0f);
+  }
+  check_random_rays(b, 7, 3000, Bounds3{{-3, -3, -1.0f}, {3, 3, 3}});
+  check_random_rays(b, 8, 1000, Bounds3{{-900, -900, 5.0f}, {900, 900, 50}});
+}
+
 TEST_CASE("adaptive grid: a floor under a mesh stays beside the mesh's grid (top or sub-grid), whose box is the mesh's") {
   for (const bool beside_top : {true, false}) {
   CAPTURE(beside_top);

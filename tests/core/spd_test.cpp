@@ -20,6 +20,8 @@
 #include <vector>
 
 #include "core/nff.h"
+#include "core/scene_source.h"
+#include "core/scene_transform.h"
 #include "core/spd.h"
 #include "scenes_dir.h"
 
@@ -410,4 +412,42 @@ TEST_CASE("spd: make_spd_scene rejects sizes outside a generator's range") {
   CHECK_THROWS_AS(make("rings", 0), std::invalid_argument);
   CHECK_THROWS_AS(make("unknown", 1), std::invalid_argument);
   CHECK_THROWS_AS(make("balls", 1, -1), std::invalid_argument);
+}
+
+TEST_CASE("stadium floor: one square K times the scene's width, under it along the view's up, a material of its own") {
+  for (const char* spec : {"teapot:2", "balls:1"}) {
+    CAPTURE(spec);
+    const Scene plain = load_scene(SceneSource(spec));
+    SceneSource with(spec);
+    with.floor = 100;
+    const Scene s = load_scene(with);
+    REQUIRE(s.shapes.size() == plain.shapes.size() + 1);
+    CHECK(s.materials.size() == plain.materials.size() + 1);
+    const Shape& f = s.shapes.back();
+    CHECK(f.kind == ShapeKind::kPolygon);
+    CHECK(f.count == 4);
+    CHECK(f.material == s.materials.size() - 1);
+    // SPD scenes are z-up: the floor lies at one z below the scene, and
+    // spans 100x the scene's largest extent on x and y, centred under it.
+    const Bounds3 b = plain.bounds();
+    const Vec3 e = b.extent();
+    const float size = std::max({e.x, e.y, e.z});
+    Bounds3 fb;
+    for (std::uint32_t i = 0; i < 4; ++i) {
+      const Vec3 p = s.vertices[f.first + i];
+      fb.extend(p);
+      CHECK(p.z == doctest::Approx(b.lower.z - 0.01f * size));
+    }
+    CHECK(fb.extent().x == doctest::Approx(100 * size));
+    CHECK(fb.extent().y == doctest::Approx(100 * size));
+    CHECK(fb.center().x == doctest::Approx(b.center().x));
+    // Its normal (Newell's, from the vertex order) points up.
+    const Vec3 a = s.vertices[f.first], c1 = s.vertices[f.first + 1], c2 = s.vertices[f.first + 2];
+    CHECK(cross(c1 - a, c2 - a).z > 0);
+  }
+  Scene one = load_scene(SceneSource("teapot:2"));
+  CHECK_THROWS_AS(add_stadium_floor(one, 0.5), std::invalid_argument);
+  CHECK_THROWS_AS(add_stadium_floor(one, 1e7), std::invalid_argument);
+  Scene empty;
+  CHECK_THROWS_AS(add_stadium_floor(empty, 10), std::invalid_argument);
 }
