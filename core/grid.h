@@ -68,8 +68,8 @@
 // lambda = density (2) per listed primitive for a sub-grid (at most
 // kMaxSubGridResolution per axis), a primitive counting as its test's cost:
 // a triangle triangle_weight (a quarter where packed cells test eight at
-// once), a sphere 1, a cone cone_weight (4). A cell
-// gets a sub-grid only where it pays by the model: its primitives weigh
+// once), a sphere 1, a cone cone_weight (4). A cell gets a sub-grid only
+// where it pays by the model: its primitives weigh
 // at least sub_grid_min (32) in units of one listed triangle's test,
 // counted as the resolution rule counts them (below it C_enter + k *
 // C_step is not won back; a packed triangle weighs a quarter, so a packed
@@ -156,8 +156,9 @@ struct GridParams {
   bool large_beside_top = true;
   /// Adaptive only: what a triangle counts for in the resolution rule,
   /// cells = density x (spheres + cone_weight x cones + triangle_weight x
-  /// triangles), at every level, and against sub_grid_min. 1 (the default) for a tracer that tests each listed
-  /// triangle on its own; kPackedTriangleWeight where the tracer tests
+  /// triangles), at every level, and against sub_grid_min. 1 (the default)
+  /// for a tracer that tests each listed triangle on its own;
+  /// kPackedTriangleWeight where the tracer tests
   /// packed cells' triangles a block at a time (cell_blocks.h,
   /// grid_params_for_packed_cells), so fewer, fuller cells pay.
   float triangle_weight = 1.0f;

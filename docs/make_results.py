@@ -1048,9 +1048,7 @@ def section_packed_triangle_weight(src):
         "The build before against this one:", name,
         ["scene", "grid / Embree, before", "grid / Embree, fuller cells", "grid time, new / old",
          "tests per ray, old / new", "memory / Embree's, old / new"], body,
-        [f"- {len(faster)} of {len(body)} scenes trace faster by more than 3% (to {body[0][3]}x the time, "
-         f"{body[0][0]}), {len(slower)} slower by more than 3%"
-         + (" (" + ", ".join(f"{b[0]} {b[3]}x" for b in slower) + ")" if slower else "")
+        [faster_slower(body, faster, slower)
          + f"; geometric mean of grid / Embree {geometric_mean(float(b[1]) for b in body):.2f} before, "
          f"{geometric_mean(float(b[2]) for b in body):.2f} after. Scenes without triangles keep their grid. Above "
          "2x Embree's time: " + (", ".join(over) if over else "none") + ".",
@@ -1058,16 +1056,29 @@ def section_packed_triangle_weight(src):
          "finer grid stays the better one on Mountain and Tetra9, so the modes that walk lists keep it."])
 
 
-def section_cone_weight(src):
-    name = "cone-weight-ab-2core.csv"
+def ab_test_rows(name):
+    """docs/ab_pair.sh's rows in results/NAME as table rows (scene, grid/Embree old and new, the paired new/old
+    grid time, tests per ray old / new), fastest change first; and the rows more than 3% faster and slower."""
     body = []
     for scene, old, new, ro, rn, paired in ab_pairs(name):
         tests_old = median(float(r["tests_per_ray"]) for r in old)
         tests_new = median(float(r["tests_per_ray"]) for r in new)
         body.append([scene, f"{ro:.2f}", f"{rn:.2f}", f"{paired:.2f}", f"{tests_old:.1f} / {tests_new:.1f}"])
     body.sort(key=lambda b: float(b[3]))
-    faster = [b for b in body if float(b[3]) < 0.97]
-    slower = [b for b in body if float(b[3]) > 1.03]
+    return body, [b for b in body if float(b[3]) < 0.97], [b for b in body if float(b[3]) > 1.03]
+
+
+def faster_slower(body, faster, slower):
+    """The opening of an A/B section's first note: how many of the rows `body` (sorted fastest first, the time
+    ratio in column 3) are more than 3% faster and slower."""
+    return (f"- {len(faster)} of {len(body)} scenes trace faster by more than 3% (to {body[0][3]}x the time, "
+            f"{body[0][0]}), {len(slower)} slower by more than 3%"
+            + (" (" + ", ".join(f"{b[0]} {b[3]}x" for b in slower) + ")" if slower else ""))
+
+
+def section_cone_weight(src):
+    name = "cone-weight-ab-2core.csv"
+    body, faster, slower = ab_test_rows(name)
     return ab_section(
         src, "Primitives weighed by their test's cost",
         "The adaptive grid counts each primitive as its test's cost, in the resolution rule and against the "
@@ -1078,9 +1089,7 @@ def section_cone_weight(src):
         "The build before against this one:", name,
         ["scene", "grid / Embree, before", "grid / Embree, weighed", "grid time, new / old",
          "tests per ray, old / new"], body,
-        [f"- {len(faster)} of {len(body)} scenes trace faster by more than 3% (to {body[0][3]}x the time, "
-         f"{body[0][0]}), {len(slower)} slower by more than 3%"
-         + (" (" + ", ".join(f"{b[0]} {b[3]}x" for b in slower) + ")" if slower else "")
+        [faster_slower(body, faster, slower)
          + f"; geometric mean of grid / Embree {geometric_mean(float(b[1]) for b in body):.2f} before, "
          f"{geometric_mean(float(b[2]) for b in body):.2f} after. The scenes with cones gain (Tree, Rings, "
          "Lattice, Jacks); the triangle scenes keep their grid where their cells are packed.",
@@ -1096,14 +1105,7 @@ def section_cone_weight(src):
 
 def section_nested_floors(src):
     name = "nested-floors-ab-2core.csv"
-    body = []
-    for scene, old, new, ro, rn, paired in ab_pairs(name):
-        tests_old = median(float(r["tests_per_ray"]) for r in old)
-        tests_new = median(float(r["tests_per_ray"]) for r in new)
-        body.append([scene, f"{ro:.2f}", f"{rn:.2f}", f"{paired:.2f}", f"{tests_old:.1f} / {tests_new:.1f}"])
-    body.sort(key=lambda b: float(b[3]))
-    faster = [b for b in body if float(b[3]) < 0.97]
-    slower = [b for b in body if float(b[3]) > 1.03]
+    body, faster, slower = ab_test_rows(name)
     stadium = [b for b in body if "_floor" in b[0]]
     over = [b[0] + f" ({b[2]})" for b in body if float(b[2]) > 2.0]
     return ab_section(
@@ -1117,9 +1119,7 @@ def section_nested_floors(src):
         "The build before against this one:", name,
         ["scene", "grid / Embree, before", "grid / Embree, nested split", "grid time, new / old",
          "tests per ray, old / new"], body,
-        [f"- {len(faster)} of {len(body)} scenes trace faster by more than 3% (to {body[0][3]}x the time, "
-         f"{body[0][0]}), {len(slower)} slower by more than 3%"
-         + (" (" + ", ".join(f"{b[0]} {b[3]}x" for b in slower) + ")" if slower else "")
+        [faster_slower(body, faster, slower)
          + f". Over the {len(stadium)} stadium scenes the geometric mean of grid / Embree goes from "
          f"{geometric_mean(float(b[1]) for b in stadium):.2f} to {geometric_mean(float(b[2]) for b in stadium):.2f}, "
          f"from {max(float(b[1]) for b in stadium):.2f} to {max(float(b[2]) for b in stadium):.2f} at the worst. "
