@@ -36,6 +36,7 @@ void run_info(const InfoOptions& o) {
   nlohmann::json j;
   j["scene"] = o.source.spec;
   j["tessellate"] = o.source.tessellate;
+  j["floor"] = o.source.floor;
   j["counts"] = {{"polygons", c.polygons},   {"patches", c.patches}, {"spheres", c.spheres},
                  {"cones", c.cones},         {"lights", c.lights},   {"materials", c.materials},
                  {"dropped_degenerate", c.dropped_degenerate}};

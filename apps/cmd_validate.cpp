@@ -72,6 +72,7 @@ void run_validate(const ValidateOptions& o) {
     nlohmann::json j;
     j["scene"] = o.source.spec;
     j["tessellate"] = o.source.tessellate;
+    j["floor"] = o.source.floor;
     j["primitives"] = db.primitives.size();
     j["grid_resolution"] = {grid.info.res[0], grid.info.res[1], grid.info.res[2]};
     j["grid"] = grid_json(grid);

@@ -63,6 +63,7 @@ nlohmann::json render_stats_json(const RenderRecord& r) {
   nlohmann::json j = {
       {"scene", r.scene_spec},
       {"tessellate", r.tessellate},
+      {"floor", r.floor},
       {"mode", r.mode},
       {"accel", r.accel},
       {"nodes", r.nodes},

@@ -40,6 +40,7 @@ void node_mode_json(const modes::RunResult& r, int nodes, FrameExtras& extras);
 struct RenderRecord {
   std::string scene_spec;            ///< the SCENE argument
   int tessellate = 0;                ///< -t
+  double floor = 0;                  ///< --floor (0: none)
   std::string mode, accel, output;   ///< --mode, --accel, -o
   int nodes = 1;                     ///< --nodes
   const core::RenderParams& params;
