@@ -360,8 +360,8 @@ void run_render(RenderOptions& o) {
   outputs->images(result, extras);
   if (outputs->wants_stats())
     outputs->stats(render_stats_json(RenderRecord{
-        o.source.spec, o.source.tessellate, o.source.floor, o.mode, o.accel, o.output, o.nodes, params, result, wall_s, cpu_s, scene,
-        db, accel.grid ? &*accel.grid : nullptr, accel.blocks ? &*accel.blocks : nullptr, accel.build_s,
+        o.source.spec, o.source.tessellate, o.source.floor, o.mode, o.accel, o.output, o.nodes, params, result,
+        wall_s, cpu_s, scene, db, accel.grid ? &*accel.grid : nullptr, accel.blocks ? &*accel.blocks : nullptr, accel.build_s,
         o.skip_empty, extras, outputs->aov_files()}));
   std::FILE* report = outputs->report();  // before commit, which releases the outputs
   outputs->commit();

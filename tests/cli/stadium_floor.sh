@@ -9,16 +9,8 @@
 #   stadium_floor.sh RAYNODE WORKDIR
 set -uo pipefail
 raynode=$(realpath "$1") workdir=$2
-rm -rf "$workdir" && mkdir -p "$workdir" && cd "$workdir" || exit 2
-
-fail=0
-render() {  # render OUT SCENE ARGS...
-  local out=$1; shift
-  if ! timeout --kill-after=5 100 "$raynode" render "$@" --width 48 --height 48 --quiet --timeout 60 -o "$out" \
-      2> "$out.err"; then
-    echo "FAIL: render $* :"; cat "$out.err"; fail=1
-  fi
-}
+# shellcheck source=tests/cli/render_lib.sh
+. "$(dirname "$0")/render_lib.sh"
 
 "$raynode" scene write balls:2 -t 1 --floor 100 -o floored.nff || { echo "FAIL: scene write --floor"; exit 1; }
 render plain.ppm balls:2 -t 1
