@@ -21,10 +21,10 @@ namespace {
 /// (grid description, camera, background, parameters) copied by value, so
 /// the node thread reads nothing of the host's.
 struct NodeState {
-  NodeState(const core::GridInfo& g, const core::Camera& c, const core::Vec3& bg, const core::RenderParams& p,
+  NodeState(const core::TopGridInfo& g, const core::Camera& c, const core::Vec3& bg, const core::RenderParams& p,
             const Rect& submap)
       : grid(g), camera(c), background(bg), render(p), submap(submap) {}
-  core::GridInfo grid;
+  core::TopGridInfo grid;
   core::Camera camera;
   core::Vec3 background;
   core::RenderParams render;

@@ -27,7 +27,7 @@ struct DatabaseArrays {
   std::span<const std::uint32_t> cell_start;       ///< cell_count()+1 offsets
   std::span<const std::uint32_t> cell_primitives;  ///< primitive ids
   std::span<const std::uint8_t> empty_distance;    ///< cell_count() empty-space distances (Grid::empty_distance; required)
-  GridInfo grid;
+  TopGridInfo grid;
   std::span<const std::uint32_t> block_start = {};  ///< CellBlocks::start, or empty: no packed cell
   std::span<const TriangleBlock> blocks = {};       ///< CellBlocks::blocks
   std::span<const std::uint32_t> sphere_block_start = {};  ///< CellBlocks::sphere_start, or empty: no packed sphere cell
@@ -66,7 +66,7 @@ class DirectView {
       : a_(DatabaseArrays::of(db, grid, blocks)), db_(&db) {}
   explicit DirectView(const DatabaseArrays& arrays) : a_(arrays) {}
 
-  const GridInfo& grid_info() const { return a_.grid; }
+  const TopGridInfo& grid_info() const { return a_.grid; }
   /// The adaptive grid's sub-grids (empty for a uniform grid); the cells
   /// below are then leaf cells (Grid), and a cell visit returns
   /// kSubGridCode + i for a cell holding sub-grid i.

@@ -39,17 +39,22 @@ namespace raynode::core {
 /// mutable state).
 class EmbreeView {
  public:
-  EmbreeView(const Database& db, const EmbreeScene& scene) : db_(&db), scene_(&scene) {}
+  EmbreeView(const Database& db, const EmbreeScene& scene)
+      : db_(&db), scene_(&scene), frame_(frame_magnitude(db)) {}
 
   const Primitive& primitive(std::uint32_t id) const { return db_->primitives[id]; }
   const Material& material(std::uint32_t id) const { return db_->materials[id]; }
   const TriangleNormals& vertex_normals(std::uint32_t id) const { return db_->vertex_normals[id]; }
   const Database& database() const { return *db_; }
   const EmbreeScene& scene() const { return *scene_; }
+  /// The grid's tracing frame over the same database (frame_magnitude), in
+  /// which the hit Embree reports is recomputed.
+  float frame() const { return frame_; }
 
  private:
   const Database* db_;
   const EmbreeScene* scene_;
+  float frame_;
 };
 
 /// Nearest hit of `ray` in (ray.tmin, ray.tmax) through Embree, with t, u, v
@@ -62,13 +67,18 @@ inline bool intersect_closest(const EmbreeView& view, const Ray& ray, Hit& hit, 
     hit = Hit{};
     return false;
   }
+  // Recomputed as the grid tests it, in the tracing frame (closest_in_frame).
   Hit exact;
-  exact.t = ray.tmax;
-  TraversalStats ignored;
-  const WatertightRay w(ray.direction);
-  if (intersect_primitive(view.primitive(hit.primitive), hit.primitive, ray, w, exact, ignored) &&
-      std::fabs(exact.t - hit.t) <= 1e-3f * std::fmax(1.0f, hit.t))
-    hit = exact;
+  const Primitive& p = view.primitive(hit.primitive);
+  const std::uint32_t id = hit.primitive;
+  const bool found = closest_in_frame(view.frame(), ray, exact, [&](const Ray& piece, Hit& h) {
+    h = Hit{};
+    h.t = piece.tmax;
+    TraversalStats ignored;
+    const WatertightRay w(piece.direction);
+    return intersect_primitive(p, id, piece, w, h, ignored);
+  });
+  if (found && std::fabs(exact.t - hit.t) <= 1e-3f * std::fmax(1.0f, hit.t)) hit = exact;
   return true;
 }
 

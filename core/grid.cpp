@@ -368,7 +368,7 @@ void for_each_overlapped_cell(const GridInfo& info, const double eps[3], const P
 }
 
 // The inflation of the cells of `info` for conservative membership: 1e-4 of
-// a cell plus 8 ulps of the whole grid's coordinate magnitude.
+// a cell plus mag_eps (magnitude_eps).
 void cell_inflation(const GridInfo& info, double mag_eps, double eps[3]) {
   for (int a = 0; a < 3; ++a) eps[a] = 1e-4 * info.cell_size[a] + mag_eps;
 }
@@ -381,9 +381,11 @@ void set_cell_size(GridInfo& info) {
   }
 }
 
-double magnitude_eps(const Bounds3& b) {
-  return 8.0 * std::numeric_limits<float>::epsilon() *
-         std::max(max_component(abs(b.lower)), max_component(abs(b.upper)));
+// 8 ulps of the larger of the top grid's box `b`'s coordinate magnitude and
+// the tracing frame's (GridInfo::frame_magnitude): the rounding of a walk
+// whose ray comes from within either cube (header comment).
+double magnitude_eps(const Bounds3& b, float frame) {
+  return 8.0 * std::numeric_limits<float>::epsilon() * std::max(coordinate_magnitude(b), frame);
 }
 
 // (cell, primitive) pairs of one run of primitives, in primitive order.
@@ -481,14 +483,15 @@ std::vector<std::uint32_t> listed_ids(const Database& db) {
 
 Grid build_uniform_grid(const Database& db, const GridParams& params) {
   Grid grid;
-  GridInfo& info = grid.info;
+  TopGridInfo& info = grid.info;
   const Bounds3 b = grid_bounds(db);
   info.bounds = b;
+  info.frame_magnitude = params.frame_magnitude > 0 ? params.frame_magnitude : frame_magnitude(db);
   choose_grid_resolution(b, db.primitives.size(), params, info.res);
   set_cell_size(info);
   const std::uint32_t ncells = info.cell_count();
   double eps[3];
-  cell_inflation(info, magnitude_eps(b), eps);
+  cell_inflation(info, magnitude_eps(b, info.frame_magnitude), eps);
 
   // Pass 1 collects (cell, primitive) pairs; a counting sort makes the CSR.
   // Polled every 4096 primitives and every 4096 cells tested (one primitive
@@ -577,7 +580,7 @@ double two_thirds_power(double x) {
 class AdaptiveBuilder {
  public:
   AdaptiveBuilder(const Database& db, const GridParams& params, Grid& grid)
-      : db_(db), params_(params), grid_(grid), mag_eps_(magnitude_eps(grid_bounds(db))) {
+      : db_(db), params_(params), grid_(grid) {
     bounds_.reserve(db.primitives.size());
     weights_.reserve(db.primitives.size());
     for (const Primitive& p : db.primitives) {
@@ -612,7 +615,7 @@ class AdaptiveBuilder {
         info, eps, db_, prims.size(), [&](std::size_t i) { return prims[i]; },
         [&](std::uint32_t id) -> const Bounds3& { return bounds_[id]; }, poll, pairs_);
     Grid local;
-    local.info = info;
+    static_cast<GridInfo&>(local.info) = info;
     pairs_to_csr(pairs_.runs, ncells, local.cell_start, local.cell_primitives);
     // A cell holding a sub-grid lists primitives, so it counts as non-empty.
     compute_empty_distance(local, params_.skip_empty);
@@ -686,6 +689,10 @@ class AdaptiveBuilder {
     }
     return index;
   }
+
+  // Sets every level's cell margin: the top grid's (magnitude_eps), for
+  // the top grid `top`. Called before build.
+  void set_margin(const TopGridInfo& top) { mag_eps_ = magnitude_eps(top.bounds, top.frame_magnitude); }
 
   // The bounds of primitive `id` (computed once, in the constructor).
   const Bounds3& bounds(std::uint32_t id) const { return bounds_[id]; }
@@ -831,16 +838,43 @@ class AdaptiveBuilder {
   const Database& db_;
   const GridParams& params_;
   Grid& grid_;
-  double mag_eps_;
+  double mag_eps_ = 0;  // magnitude_eps of the top grid (set_margin)
   std::vector<Bounds3> bounds_;  // of each primitive, by id
   std::vector<float> weights_;   // of each primitive in the resolution rule, by id
   float max_weight_ = 0;         // the largest of weights_
   PairRuns pairs_;  // scratch of build: (cell, primitive) pairs
 };
 
+// The box the adaptive top grid covers within `box` (the scene's), the
+// scene's few large primitives set aside (a floor, a wall), in `large`,
+// ascending; `small` gets the others (both from `all`, ascending). Then again
+// within that box, for scenes of nested scales (an object on its own ground,
+// on a stadium floor), while `large` stays within kMaxTopLarge. With no
+// large primitive, `box` and every primitive in `small`.
+Bounds3 split_scene(const AdaptiveBuilder& builder, Bounds3 box, const std::vector<std::uint32_t>& all,
+                    std::vector<std::uint32_t>& small, std::vector<std::uint32_t>& large) {
+  std::vector<std::uint32_t> rest = all, found;
+  large.clear();
+  for (;;) {
+    const double budget = std::min(double(kMaxTopLarge - large.size()), kLargeShare * double(rest.size()));
+    if (budget < 1) break;
+    builder.split_large(box, rest, budget, small, found);
+    if (found.empty()) break;
+    large.insert(large.end(), found.begin(), found.end());
+    Bounds3 reach;
+    for (const std::uint32_t id : small) reach.extend(builder.bounds(id));
+    const Bounds3 padded = pad_box(reach);
+    box = Bounds3{max(box.lower, padded.lower), min(box.upper, padded.upper)};
+    rest.swap(small);
+  }
+  small.swap(rest);
+  std::sort(large.begin(), large.end());
+  return box;
+}
+
 Grid build_adaptive_grid(const Database& db, const GridParams& params) {
   Grid grid;
-  GridInfo top;
+  TopGridInfo top;
   top.bounds = grid_bounds(db);
   std::vector<std::uint32_t> all = listed_ids(db), small, large;
   AdaptiveBuilder builder(db, params, grid);
@@ -852,30 +886,19 @@ Grid build_adaptive_grid(const Database& db, const GridParams& params) {
     // again within that box, for scenes of nested scales (an object on its
     // own ground, on a stadium floor), while the leaf stays within
     // kMaxTopLarge.
-    if (params.large_beside_top) {
-      std::vector<std::uint32_t> rest = all, found;
-      for (;;) {
-        const double budget =
-            std::min(double(kMaxTopLarge - large.size()), kLargeShare * double(rest.size()));
-        if (budget < 1) break;
-        builder.split_large(top.bounds, rest, budget, small, found);
-        if (found.empty()) break;
-        large.insert(large.end(), found.begin(), found.end());
-        Bounds3 reach;
-        for (const std::uint32_t id : small) reach.extend(builder.bounds(id));
-        const Bounds3 padded = pad_box(reach);
-        top.bounds = Bounds3{max(top.bounds.lower, padded.lower), min(top.bounds.upper, padded.upper)};
-        rest.swap(small);
-      }
-      small.swap(rest);
-      std::sort(large.begin(), large.end());
-    }
+    if (params.large_beside_top) top.bounds = split_scene(builder, top.bounds, all, small, large);
     choose_adaptive_resolution(top.bounds, double(params.top_density) * builder.weighted_count(large.empty() ? all : small),
                                params.max_resolution, top.res);
   }
   set_cell_size(top);
+  // The frame: the top grid's own box when it is the objects' box (the
+  // large primitives split off, as frame_magnitude does), else computed.
+  top.frame_magnitude = params.frame_magnitude > 0 ? params.frame_magnitude
+                        : params.large_beside_top && params.resolution[0] <= 0 ? 2.0f * coordinate_magnitude(top.bounds)
+                                                                               : frame_magnitude(db);
   grid.info = top;
   grid.cell_start.push_back(0);
+  builder.set_margin(top);
   builder.build(top, large.empty() ? std::span<const std::uint32_t>(all) : std::span<const std::uint32_t>(small), 0,
                 large);
   grid.built_as = GridKind::kAdaptive;
@@ -887,6 +910,14 @@ Grid build_adaptive_grid(const Database& db, const GridParams& params) {
 }
 
 }  // namespace
+
+float frame_magnitude(const Database& db) {
+  Grid scratch;
+  const GridParams params;
+  const AdaptiveBuilder builder(db, params, scratch);
+  std::vector<std::uint32_t> small, large;
+  return 2.0f * coordinate_magnitude(split_scene(builder, grid_bounds(db), listed_ids(db), small, large));
+}
 
 Grid build_grid(const Database& db, const GridParams& params) {
   return params.kind == GridKind::kAdaptive ? build_adaptive_grid(db, params) : build_uniform_grid(db, params);

@@ -16,8 +16,13 @@
 //
 // Cell membership is conservative: a primitive is listed in every cell its
 // surface may touch, with the cell box inflated by a small epsilon (1e-4 of
-// a cell plus a few ulps of the grid's coordinate magnitude), so rounding in
-// the 3D-DDA can never skip a primitive. Triangles use the separating-axis
+// a cell plus 8 ulps of the larger of the top grid's coordinate magnitude
+// and the tracing frame's), so rounding in the 3D-DDA can never skip a
+// primitive. The tracer keeps its rounding at that magnitude: a ray from
+// beyond the frame (a far floor's point, a distant eye) is tested from
+// where its line enters the frame's cube, that point computed in double
+// (traverse.h, framed_ray). So a stadium floor beside the adaptive grid's
+// top grid does not widen every cell over the object. Triangles use the separating-axis
 // triangle/box test (Akenine-Moeller 2001), spheres the box/sphere distance
 // test (Arvo 1990), cones a capsule test (the cell's bounding sphere against
 // the axis segment grown by the larger radius).
@@ -99,6 +104,7 @@
 // height; the adaptive grid's sub-grids over the mesh divide that axis).
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -165,6 +171,10 @@ struct GridParams {
   /// Adaptive only: what a cone counts for, in the resolution rule and
   /// against sub_grid_min (kConeWeight: its test's cost in triangle tests).
   float cone_weight = kConeWeight;
+  /// TopGridInfo::frame_magnitude to give the grid; 0 (the default): the
+  /// database's own, frame_magnitude(db). dataflow's region grids get the
+  /// whole scene's, so that every mode tests a ray in the same frame.
+  float frame_magnitude = 0;
 };
 
 /// GridParams::triangle_weight of a tracer that tests packed triangle
@@ -213,6 +223,16 @@ struct GridInfo {
   }
   /// World box of cell (x, y, z).
   Bounds3 cell_bounds(int x, int y, int z) const;
+};
+
+/// The top grid's GridInfo, with the tracing frame: a ray whose origin lies
+/// outside the cube [-frame_magnitude, frame_magnitude]^3 is tested from
+/// where its line enters that cube (traverse.h, framed_ray), so that its
+/// rounding is the scene's objects' and not the far origin's; the cells'
+/// margins hold that rounding (header comment). What every node
+/// replicates; a sub-grid's record is a plain GridInfo.
+struct TopGridInfo : GridInfo {
+  float frame_magnitude = 0;  ///< world units; 0: every ray as it is
 };
 
 /// One grid of an adaptive grid's hierarchy: the top grid (index 0) or the
@@ -285,7 +305,7 @@ inline constexpr std::size_t kMaxTopLarge = 8;
 /// the leaf cells, so views read a leaf's list as they read a uniform cell's.
 /// A leaf's empty distance counts cells of its own grid.
 struct Grid {
-  GridInfo info;  ///< the (top) grid; adaptive: its bounds may hold only the primitives not beside it (SubGrid)
+  TopGridInfo info;  ///< the (top) grid; adaptive: its bounds may hold only the primitives not beside it (SubGrid)
   std::vector<std::uint32_t> cell_start;       ///< cell_count()+1 offsets
   std::vector<std::uint32_t> cell_primitives;  ///< primitive ids into Database::primitives
   /// Per cell: 0 if it lists a primitive, else the Chebyshev distance in
@@ -343,6 +363,20 @@ Bounds3 grid_bounds(const Database& db);
 /// `b` (or [-1,1]^3 when empty) grown by max(1e-4 of its largest extent,
 /// 16 ulps of its largest coordinate) on every side.
 Bounds3 pad_box(Bounds3 b);
+
+/// The largest coordinate magnitude of box `b` (world units): the cube
+/// [-m, m]^3 holds it.
+inline float coordinate_magnitude(const Bounds3& b) {
+  return std::max(max_component(abs(b.lower)), max_component(abs(b.upper)));
+}
+
+/// The tracing frame of `db` (TopGridInfo::frame_magnitude): twice the
+/// coordinate magnitude of the box its objects fill once its few large
+/// primitives (a floor, a stadium) are set aside, as the adaptive grid's top
+/// grid covers it, whatever the grid kind; twice, so that the frame's edge
+/// lies well away from every object and a piece of a ray before it meets
+/// none. World units.
+float frame_magnitude(const Database& db);
 
 /// Fills grid.empty_distance from grid.cell_start (see Grid); with
 /// skip_empty false, 0 for a non-empty cell and 1 for an empty one.

@@ -34,6 +34,7 @@
 // f() calling primitive() (PagedView re-resolves its list page).
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -673,6 +674,92 @@ inline void walk_cells(const View& view, const Ray& ray, Visit& visit) {
   walk_grid(view.grid_info(), cell_order_of(view), ray, visit);
 }
 
+/// The tracing frame (TopGridInfo::frame_magnitude `frame`): a ray whose
+/// origin lies outside the cube [-frame, frame]^3 and whose line (t >= 0)
+/// enters it is tested in two pieces: up to the entry from its own origin,
+/// and from the entry on from the entry point, computed in double and
+/// rounded once (the other piece's tmin and tmax moved by the entry's
+/// parameter, a hit's t moved back). A far origin's rounding (a point of a
+/// floor 1000x the objects' size, a distant eye) then never reaches the
+/// objects' walk and tests, whose rounding the cells' margins hold
+/// (grid.h), while what lies near the origin (the surface a secondary ray
+/// leaves) is still tested from the origin, as its spawn offset assumes.
+/// The split depends on the ray's line alone, not on tmin or tmax, so a ray
+/// traced in pieces (dataflow's regions) is split alike.
+///
+/// Returns the entry's parameter s, with `framed` the piece from it (tmin
+/// at most 0: from 2^-20 s before the entry, so the pieces overlap), or 0
+/// with `framed` = `ray` when the ray is tested whole.
+inline double framed_ray(float frame, const Ray& ray, Ray& framed) {
+  framed = ray;
+  if (max_component(abs(ray.origin)) <= frame || !(frame > 0.0f)) [[likely]]
+    return 0.0;
+  double t0 = -std::numeric_limits<double>::infinity(), t1 = std::numeric_limits<double>::infinity();
+  for (int a = 0; a < 3; ++a) {
+    const double o = ray.origin[a], d = ray.direction[a];
+    if (d == 0.0) {
+      if (std::fabs(o) > frame) return 0.0;
+      continue;
+    }
+    double lo = (-double(frame) - o) / d, hi = (double(frame) - o) / d;
+    if (lo > hi) std::swap(lo, hi);
+    t0 = std::max(t0, lo);
+    t1 = std::min(t1, hi);
+  }
+  if (!(t0 <= t1) || !(t0 > 0.0)) return 0.0;
+  for (int a = 0; a < 3; ++a) framed.origin[a] = float(double(ray.origin[a]) + double(ray.direction[a]) * t0);
+  framed.tmin = float(std::max(double(ray.tmin) - t0, -0x1p-20 * t0));
+  framed.tmax = float(double(ray.tmax) - t0);  // +inf stays +inf
+  return t0;
+}
+
+/// The closest hit of `ray` in the tracing frame `frame` (framed_ray):
+/// closest(const Ray& piece, Hit& hit) -> bool (the nearest hit of a
+/// piece, its t in that piece's parameter) for the whole ray, or for the
+/// piece before the frame and, unless that piece's hit lies clearly before
+/// the entry, the piece in it; the nearer hit wins, an exact tie going to
+/// the lower primitive id.
+template <class Closest>
+bool closest_in_frame(float frame, const Ray& ray, Hit& hit, Closest&& closest) {
+  Ray framed;
+  const double s = framed_ray(frame, ray, framed);
+  if (s == 0.0) [[likely]]
+    return closest(ray, hit);
+  Ray before = ray;
+  before.tmax = std::min(ray.tmax, std::nextafter(float(s), kInfinity));
+  Hit near;
+  const bool found_near = before.tmin <= before.tmax && closest(before, near);
+  if (found_near && double(near.t) < s * (1.0 - 0x1p-20)) {
+    hit = near;
+    return true;
+  }
+  Hit far;
+  const bool found_far = framed.tmin <= framed.tmax && closest(framed, far);
+  if (found_far) far.t = float(s + double(far.t));
+  if (!found_far && !found_near) {
+    hit = Hit{};
+    return false;
+  }
+  hit = !found_far || (found_near && (near.t < far.t || (near.t == far.t && near.primitive < far.primitive))) ? near
+                                                                                                           : far;
+  return true;
+}
+
+/// intersect_any's answer in the tracing frame: any(const Ray& piece) ->
+/// bool for the whole ray, or for the piece before the frame, then the
+/// piece in it (closest_in_frame).
+template <class Any>
+bool any_in_frame(float frame, const Ray& ray, Any&& any) {
+  Ray framed;
+  const double s = framed_ray(frame, ray, framed);
+  if (s == 0.0) [[likely]]
+    return any(ray);
+  Ray before = ray;
+  before.tmax = std::min(ray.tmax, std::nextafter(float(s), kInfinity));
+  if (before.tmin <= before.tmax && any(before)) return true;
+  return framed.tmin <= framed.tmax && any(framed);
+}
+
 namespace detail {
 
 // The visitors below keep the hit, the counters and the mailbox's stamp in
@@ -765,33 +852,38 @@ template <int KX, int KY, int KZ, class View>
 
 /// Nearest hit of `ray` in (ray.tmin, ray.tmax), an exact tie in t going to
 /// the lowest primitive id (tie_bound), so that every grid gives the same
-/// hit. Each primitive is tested at most once per ray (mailbox); the walk
+/// hit. Tested in the grid's tracing frame (closest_in_frame). Each primitive is tested at most once per ray (mailbox); the walk
 /// stops as soon as the best hit lies within the current cell. Returns
 /// hit.found(). Precondition: is_valid_ray(ray) (callers reject NaN rays
 /// before).
 template <class View>
 bool intersect_closest(const View& view, const Ray& ray, Hit& hit, TraversalScratch& scratch) {
-  hit = Hit{};
-  hit.t = ray.tmax;
-  const WatertightRay w(ray);
-  scratch.mailbox.next_ray();
   ++scratch.stats.rays;
-  const bool found = detail::with_axes(w, [&]<int KX, int KY, int KZ>() {
-    return detail::intersect_closest_axes<KX, KY, KZ>(view, ray, w, hit, scratch);
+  return closest_in_frame(view.grid_info().frame_magnitude, ray, hit, [&](const Ray& piece, Hit& h) {
+    h = Hit{};
+    h.t = piece.tmax;
+    const WatertightRay w(piece);
+    scratch.mailbox.next_ray();
+    const bool found = detail::with_axes(w, [&]<int KX, int KY, int KZ>() {
+      return detail::intersect_closest_axes<KX, KY, KZ>(view, piece, w, h, scratch);
+    });
+    if (!found) h = Hit{};
+    return found;
   });
-  if (!found) hit = Hit{};
-  return found;
 }
 
 /// True if anything lies on `ray` in (ray.tmin, ray.tmax): the shadow-ray
-/// query. Stops at the first hit found.
+/// query, in the grid's tracing frame (any_in_frame). Stops at the first
+/// hit found.
 template <class View>
 bool intersect_any(const View& view, const Ray& ray, TraversalScratch& scratch) {
-  const WatertightRay w(ray);
-  scratch.mailbox.next_ray();
   ++scratch.stats.rays;
-  return detail::with_axes(w, [&]<int KX, int KY, int KZ>() {
-    return detail::intersect_any_axes<KX, KY, KZ>(view, ray, w, scratch);
+  return any_in_frame(view.grid_info().frame_magnitude, ray, [&](const Ray& piece) {
+    const WatertightRay w(piece);
+    scratch.mailbox.next_ray();
+    return detail::with_axes(w, [&]<int KX, int KY, int KZ>() {
+      return detail::intersect_any_axes<KX, KY, KZ>(view, piece, w, scratch);
+    });
   });
 }
 

@@ -51,7 +51,7 @@ class CostView {
         cost_(cost),
         beside_top_(beside_top),
         large_leaf_(base.sub_grid_tables().top_large_leaf()) {}
-  const core::GridInfo& grid_info() const { return base_.grid_info(); }
+  const core::TopGridInfo& grid_info() const { return base_.grid_info(); }
   /// The base's sub-grid tables: an adaptive grid is walked leaf by leaf.
   core::SubGridTables sub_grid_tables() const { return base_.sub_grid_tables(); }
   template <class F>

@@ -47,7 +47,7 @@ struct NodeState {
   /// The progress line's pixel counter (core::RenderParams::progress), or
   /// null: a meter for the user, outside the emulated machine.
   std::atomic<std::uint64_t>* progress = nullptr;
-  core::GridInfo grid;
+  core::TopGridInfo grid;
   core::Camera camera;
   core::Vec3 background;
   core::Bounds3 scene_box;

@@ -75,6 +75,10 @@ std::vector<RegionDatabase> make_region_databases(const core::Database& db, cons
       }
   }
 
+  // Every region's grid traces in the whole scene's frame, as the other
+  // modes' grids do, so that a ray is tested alike everywhere.
+  core::GridParams params = grid_params;
+  if (params.frame_magnitude <= 0) params.frame_magnitude = core::frame_magnitude(db);
   std::vector<RegionDatabase> out(n);
   for (std::uint32_t r = 0; r < n; ++r) {
     RegionDatabase& rd = out[r];
@@ -112,7 +116,7 @@ std::vector<RegionDatabase> make_region_databases(const core::Database& db, cons
     b.lower = core::max(box.lower, prim_bounds.lower);
     b.upper = core::min(box.upper, prim_bounds.upper);
     rd.db.bounds = b.empty() ? prim_bounds : b;
-    rd.grid = core::build_grid(rd.db, grid_params);
+    rd.grid = core::build_grid(rd.db, params);
   }
   return out;
 }

@@ -67,7 +67,7 @@ class RegionView {
   RegionView(const core::DatabaseArrays& arrays, const std::uint8_t* shared, std::uint64_t* shared_tests)
       : a_(arrays), shared_(shared), shared_tests_(shared_tests) {}
 
-  const core::GridInfo& grid_info() const { return a_.grid; }
+  const core::TopGridInfo& grid_info() const { return a_.grid; }
   /// The adaptive local grid's tables (all empty for a uniform grid); a
   /// cell visit returns kSubGridCode + i for a cell holding sub-grid i.
   core::SubGridTables sub_grid_tables() const { return {a_.sub_grids, a_.cell_entries}; }

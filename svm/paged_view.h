@@ -56,10 +56,10 @@ class PagedView {
   /// `materials` live in the node's arena (replicated metadata).
   /// For a directory in the linear order; throws std::logic_error for a
   /// bricked one (BrickedPagedView walks those).
-  PagedView(Pager& pager, const core::GridInfo& grid, std::span<const core::Material> materials)
+  PagedView(Pager& pager, const core::TopGridInfo& grid, std::span<const core::Material> materials)
       : PagedView(pager, grid, materials, DirectoryOrder::kLinear) {}
 
-  const core::GridInfo& grid_info() const { return grid_; }
+  const core::TopGridInfo& grid_info() const { return grid_; }
   /// True for an adaptive grid's layout (sub-grid records are paged).
   bool has_sub_grids() const { return layout_.sub_grids > 0; }
   /// The directory key of the leaf listing the scene's large primitives
@@ -154,7 +154,7 @@ class PagedView {
   }
 
  protected:
-  PagedView(Pager& pager, const core::GridInfo& grid, std::span<const core::Material> materials, DirectoryOrder order)
+  PagedView(Pager& pager, const core::TopGridInfo& grid, std::span<const core::Material> materials, DirectoryOrder order)
       : pager_(&pager),
         layout_(pager.layout()),
         lists_(layout_.address(layout_.list_first)),
@@ -190,7 +190,7 @@ class PagedView {
   PageLayout layout_;  // a copy: its fields stay in the view, one load away
   /// The segments' first addresses in the shared virtual memory.
   std::uint64_t lists_, primitives_, blocks_;
-  core::GridInfo grid_;
+  core::TopGridInfo grid_;
   std::span<const core::Material> materials_;
 };
 
@@ -199,7 +199,7 @@ class PagedView {
 /// for the layout's bricks and the grid (which outlive the view).
 class BrickedPagedView : public PagedView {
  public:
-  BrickedPagedView(Pager& pager, const core::GridInfo& grid, std::span<const core::Material> materials,
+  BrickedPagedView(Pager& pager, const core::TopGridInfo& grid, std::span<const core::Material> materials,
                    const core::CellKeyTables& order)
       : PagedView(pager, grid, materials, DirectoryOrder::kBricked), order_(order) {}
   const core::CellKeyTables& cell_order() const { return order_; }

@@ -30,10 +30,10 @@ std::size_t message_reserve(std::uint32_t max_payload) { return 32 * 1024 + 2 * 
 /// What a node holds besides the pager: O(1) metadata by value, the
 /// replicated materials and lights in its arena.
 struct NodeState {
-  NodeState(const core::GridInfo& g, const core::Camera& c, const core::Vec3& bg, const core::RenderParams& p,
+  NodeState(const core::TopGridInfo& g, const core::Camera& c, const core::Vec3& bg, const core::RenderParams& p,
             const Rect& submap)
       : grid(g), camera(c), background(bg), render(p), submap(submap) {}
-  core::GridInfo grid;
+  core::TopGridInfo grid;
   core::Camera camera;
   core::Vec3 background;
   core::RenderParams render;
@@ -74,7 +74,7 @@ struct NodeState {
 /// Everything the run needs from the host, none of it the host's scene.
 struct RunInput {
   const PagedImage* image;
-  core::GridInfo grid;
+  core::TopGridInfo grid;
   std::span<const core::Material> materials;
   std::span<const core::Light> lights;
   core::Vec3 background;

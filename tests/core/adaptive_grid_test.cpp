@@ -174,6 +174,70 @@ TEST_CASE("adaptive grid: nested scales (a mesh on its own ground on a stadium f
   check_random_rays(b, 8, 1000, Bounds3{{-900, -900, 5.0f}, {900, 900, 50}});
 }
 
+TEST_CASE("adaptive grid: a stadium floor leaves the object's cells as they are, and rays from the far floor or a distant eye agree with brute force") {
+  // The mesh on its own ground, alone and on a stadium floor 2e5 wide.
+  const Scene alone = mesh_on_floor(21, 600, 4.0f);
+  Scene stadium = alone;
+  const Vec3 quad[4] = {{-1e5f, -1e5f, -2}, {1e5f, -1e5f, -2}, {1e5f, 1e5f, -2}, {-1e5f, 1e5f, -2}};
+  stadium.add_polygon(quad, 4);
+  const Built a(alone, adaptive()), b(stadium, adaptive());
+  // The same top grid and the same cells: their margin is set by the top
+  // grid's own magnitude, not by the floor's. The large leaf lists the
+  // stadium's two triangles more.
+  for (int k = 0; k < 3; ++k) {
+    CHECK(b.grid.info.bounds.lower[k] == a.grid.info.bounds.lower[k]);
+    CHECK(b.grid.info.bounds.upper[k] == a.grid.info.bounds.upper[k]);
+    CHECK(b.grid.info.res[k] == a.grid.info.res[k]);
+  }
+  CHECK(b.grid.sub_grids.size() == a.grid.sub_grids.size());
+  CHECK(b.grid.cell_primitives.size() == a.grid.cell_primitives.size() + 2);
+  // Rays from the stadium floor, 1e3 to 9e4 away, just above it, to the
+  // mesh, and from an eye 1e5 to 1e6 away (float spacing there is up to
+  // 0.06, a triangle's size): they are tested from where they enter the
+  // tracing frame. The grids agree with brute force in that frame bit for
+  // bit, and with brute force from the far origin within its rounding.
+  // (Embree tests from the far origin: at this distance its answers are
+  // that rounding's, no oracle.)
+  GridParams uniform_grid;
+  uniform_grid.kind = GridKind::kUniform;
+  const Built u(alone, uniform_grid);
+  CHECK(u.grid.info.frame_magnitude == a.grid.info.frame_magnitude);  // the objects' box, whatever the grid
+  Rng rng(22);
+  for (const Built* built : {&b, &a, &u}) {
+    const bool floor = built == &b;
+    Failures bad;
+    int hits = 0, far_hits = 0;
+    TraversalScratch scratch;
+    for (int i = 0; i < 3000; ++i) {
+      Vec3 o;
+      if (floor) {
+        const float r = uniform(rng, 1e3f, 9e4f), phi = uniform(rng, 0.0f, 6.2831853f);
+        o = Vec3{r * std::cos(phi), r * std::sin(phi), -1.9f};
+      } else {
+        const Vec3 e = random_unit(rng) * uniform(rng, 1e5f, 1e6f);
+        o = Vec3{e.x, e.y, std::fabs(e.z) + 1e4f};
+      }
+      const Primitive& p = built->db.primitives[std::uniform_int_distribution<std::uint32_t>(0, 599)(rng)];
+      const Ray ray{o, normalize(centre_of(p) - o), 0.0f, kInfinity};
+      Hit g;
+      const bool found = intersect_closest(built->view(), ray, g, scratch);
+      const Hit r = brute_closest(*built, ray);
+      hits += found;
+      if (found != r.found() || (found && (g.t != r.t || g.primitive != r.primitive)))
+        bad.add(str(ray) + ": grid " + str(g) + ", brute force " + str(r));
+      if (intersect_any(built->view(), ray, scratch) != found) bad.add(str(ray) + ": any-hit disagrees");
+      // From the far origin: the same t within the rounding of its distance.
+      const Hit f = brute_closest(built->db, ray, 0.0f);
+      if (found && f.found() && std::fabs(f.t - g.t) <= 1e-5f * g.t) ++far_hits;
+    }
+    CAPTURE(floor);
+    INFO("mismatches:" << bad.first);
+    CHECK(bad.count == 0);
+    CHECK(hits > 2500);
+    CHECK(far_hits > 2400);
+  }
+}
+
 TEST_CASE("adaptive grid: a floor under a mesh stays beside the mesh's grid (top or sub-grid), whose box is the mesh's") {
   for (const bool beside_top : {true, false}) {
   CAPTURE(beside_top);
@@ -241,8 +305,13 @@ TEST_CASE("adaptive grid: a closest hit ends the walk at the first leaf it lies 
   // leaf visited first.
   Rng rng(23);
   int floor_hits = 0, ended_early = 0;
+  // The eye, moved along its line into the tracing frame if need be.
+  const Vec3 eye = scene.view.from *
+                   std::min(1.0f, 0.95f * b.grid.info.frame_magnitude / max_component(abs(scene.view.from)));
   for (int i = 0; i < 4000; ++i) {
-    const Vec3 o = i % 2 ? scene.view.from : random_in(rng, Bounds3{{-2, -2, -0.9f}, {2, 2, 2}});
+    const Vec3 o = i % 2 ? eye : random_in(rng, Bounds3{{-2, -2, -0.9f}, {2, 2, 2}});
+    // (Within the tracing frame, so that the ray is walked whole, as here.)
+    REQUIRE(max_component(abs(o)) <= b.grid.info.frame_magnitude);
     const Vec3 to = random_in(rng, Bounds3{{-1.5f, -1.5f, -1.01f}, {1.5f, 1.5f, i % 4 < 2 ? -1.01f : 1.0f}});
     const Ray ray{o, normalize(to - o), 0.0f, kInfinity};
     TraversalScratch scratch;

@@ -167,7 +167,7 @@ TEST_CASE("grid: intersect_any agrees with intersect_closest and with Embree on 
     if (any != embree.intersect_any(ray)) {
       // Embree's robust mode may differ on rays grazing an edge; the
       // brute-force answer decides.
-      if (any != brute_closest(b.db, ray).found()) bad.add(str(ray) + ": any-hit disagrees with Embree and brute force");
+      if (any != brute_closest(b, ray).found()) bad.add(str(ray) + ": any-hit disagrees with Embree and brute force");
     }
   }
   INFO("disagreements:" << bad.first);

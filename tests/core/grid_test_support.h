@@ -89,9 +89,13 @@ inline GridParams forced(int x, int y, int z) {
   return p;
 }
 
-// Closest hit by testing every primitive with the single-primitive tests.
-inline Hit brute_closest(const Database& db, const Ray& ray) {
-  Hit hit;
+// Closest hit by testing every primitive with the single-primitive tests,
+// the ray in the tracing frame `frame` (closest_in_frame), as the
+// traversal tests it.
+inline Hit brute_closest(const Database& db, const Ray& world_ray, float frame) {
+  Hit out;
+  closest_in_frame(frame, world_ray, out, [&](const Ray& ray, Hit& hit) {
+  hit = Hit{};
   hit.t = ray.tmax;
   const WatertightRay w(ray.direction);
   for (std::uint32_t i = 0; i < db.primitives.size(); ++i) {
@@ -118,7 +122,14 @@ inline Hit brute_closest(const Database& db, const Ray& ray) {
     }
   }
   if (!hit.found()) hit = Hit{};
-  return hit;
+  return hit.found();
+  });
+  return out;
+}
+
+// brute_closest in the frame of b's grid.
+inline Hit brute_closest(const Built& b, const Ray& ray) {
+  return brute_closest(b.db, ray, b.grid.info.frame_magnitude);
 }
 
 // Counts failures and keeps the first few descriptions for the report.
@@ -206,7 +217,7 @@ struct RayChecker {
     Hit g;
     const bool found = intersect_closest(b.view(), ray, g, scratch);
     hits += found;
-    const Hit r = brute_closest(b.db, ray);
+    const Hit r = brute_closest(b, ray);
     if (found != g.found() || g.found() != r.found() || (found && g.t != r.t))
       vs_brute.add(str(ray) + ": grid " + str(g) + ", brute force " + str(r));
     Hit e;

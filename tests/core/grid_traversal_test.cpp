@@ -145,11 +145,11 @@ TEST_CASE("grid: a ray starting a hair short of a cell boundary finds the primit
     const Ray up{{before, 2.5f, 2.5f}, d, 0.0f, kInfinity};
     REQUIRE(intersect_closest(b.view(), up, h, scratch));
     CHECK(b.db.primitives[h.primitive].shape == 2);
-    CHECK(h.t == brute_closest(b.db, up).t);
+    CHECK(h.t == brute_closest(b, up).t);
     const Ray down{{after, 2.5f, 2.5f}, -d, 0.0f, kInfinity};
     REQUIRE(intersect_closest(b.view(), down, h, scratch));
     CHECK(b.db.primitives[h.primitive].shape == 3);
-    CHECK(h.t == brute_closest(b.db, down).t);
+    CHECK(h.t == brute_closest(b, down).t);
   }
 }
 
@@ -165,7 +165,7 @@ TEST_CASE("grid: a large primitive hit beyond the current cell does not hide a n
   s.add_polygon(anchor, 3);
   const Built b(s, forced(8, 1, 1));
   const Ray ray{{-1, 0.75f, 0}, {1, 0, 0}, 0.0f, kInfinity};
-  const Hit brute = brute_closest(b.db, ray);
+  const Hit brute = brute_closest(b, ray);
   REQUIRE(brute.found());
   REQUIRE(b.db.primitives[brute.primitive].shape == 1);
   TraversalScratch scratch;
@@ -181,7 +181,7 @@ TEST_CASE("grid: a large primitive hit beyond the current cell does not hide a n
   const Built b2(s2, forced(8, 1, 1));
   REQUIRE(intersect_closest(b2.view(), ray, h, scratch));
   CHECK(h.primitive == 0);
-  CHECK(h.t == brute_closest(b2.db, ray).t);
+  CHECK(h.t == brute_closest(b2, ray).t);
   CHECK(h.t > 7.0f);
 }
 
@@ -201,7 +201,7 @@ TEST_CASE("grid: an exact tie in t goes to the lowest primitive id over every gr
   Failures wrong;
   int grids = 0;
   auto check = [&](const Built& b, const std::string& what) {
-    const Hit brute = brute_closest(b.db, ray);
+    const Hit brute = brute_closest(b, ray);
     REQUIRE(brute.found());
     REQUIRE(brute.primitive == 0);
     REQUIRE(brute.t == 4.0f);
@@ -253,7 +253,7 @@ TEST_CASE("grid: mailboxing tests a large triangle once per ray however many of 
   // 0.013 above the plane, closing in at 0.01 per unit: hits at x = 0.8.
   const Ray hitting{{-0.5f, 0.05f, -0.45f + 0.013f}, {1, 0, 0.99f}, 0.0f, kInfinity};
   REQUIRE(intersect_closest(b.view(), hitting, h, s2));
-  CHECK(h.t == brute_closest(b.db, hitting).t);
+  CHECK(h.t == brute_closest(b, hitting).t);
   CHECK(s2.stats.triangle_tests == 1);
   CHECK(s2.stats.mailbox_skips > 0);
 }
