@@ -690,10 +690,9 @@ inline void walk_cells(const View& view, const Ray& ray, Visit& visit) {
 /// Returns the entry's parameter s, with `framed` the piece from it (tmin
 /// at most 0: from 2^-20 s before the entry, so the pieces overlap), or 0
 /// with `framed` = `ray` when the ray is tested whole.
-inline double framed_ray(float frame, const Ray& ray, Ray& framed) {
+[[gnu::noinline]] inline double framed_ray(float frame, const Ray& ray, Ray& framed) {
   framed = ray;
-  if (max_component(abs(ray.origin)) <= frame || !(frame > 0.0f)) [[likely]]
-    return 0.0;
+  if (max_component(abs(ray.origin)) <= frame || !(frame > 0.0f)) return 0.0;
   double t0 = -std::numeric_limits<double>::infinity(), t1 = std::numeric_limits<double>::infinity();
   for (int a = 0; a < 3; ++a) {
     const double o = ray.origin[a], d = ray.direction[a];
@@ -721,10 +720,11 @@ inline double framed_ray(float frame, const Ray& ray, Ray& framed) {
 /// the lower primitive id.
 template <class Closest>
 bool closest_in_frame(float frame, const Ray& ray, Hit& hit, Closest&& closest) {
+  if (max_component(abs(ray.origin)) <= frame) [[likely]]
+    return closest(ray, hit);
   Ray framed;
   const double s = framed_ray(frame, ray, framed);
-  if (s == 0.0) [[likely]]
-    return closest(ray, hit);
+  if (s == 0.0) return closest(ray, hit);
   Ray before = ray;
   before.tmax = std::min(ray.tmax, std::nextafter(float(s), kInfinity));
   Hit near;
@@ -750,10 +750,11 @@ bool closest_in_frame(float frame, const Ray& ray, Hit& hit, Closest&& closest) 
 /// piece in it (closest_in_frame).
 template <class Any>
 bool any_in_frame(float frame, const Ray& ray, Any&& any) {
+  if (max_component(abs(ray.origin)) <= frame) [[likely]]
+    return any(ray);
   Ray framed;
   const double s = framed_ray(frame, ray, framed);
-  if (s == 0.0) [[likely]]
-    return any(ray);
+  if (s == 0.0) return any(ray);
   Ray before = ray;
   before.tmax = std::min(ray.tmax, std::nextafter(float(s), kInfinity));
   if (before.tmin <= before.tmax && any(before)) return true;
@@ -850,25 +851,60 @@ template <int KX, int KY, int KZ, class View>
 
 }  // namespace detail
 
+namespace detail {
+
+/// intersect_closest of one piece of a ray, in its own parameter (no
+/// frame): the walk and tests, inlined.
+template <class View>
+[[gnu::always_inline]] inline bool closest_piece(const View& view, const Ray& ray, Hit& hit, TraversalScratch& scratch) {
+  hit = Hit{};
+  hit.t = ray.tmax;
+  const WatertightRay w(ray);
+  scratch.mailbox.next_ray();
+  const bool found = with_axes(w, [&]<int KX, int KY, int KZ>() {
+    return intersect_closest_axes<KX, KY, KZ>(view, ray, w, hit, scratch);
+  });
+  if (!found) hit = Hit{};
+  return found;
+}
+
+/// intersect_any of one piece of a ray (no frame), inlined.
+template <class View>
+[[gnu::always_inline]] inline bool any_piece(const View& view, const Ray& ray, TraversalScratch& scratch) {
+  const WatertightRay w(ray);
+  scratch.mailbox.next_ray();
+  return with_axes(w, [&]<int KX, int KY, int KZ>() { return intersect_any_axes<KX, KY, KZ>(view, ray, w, scratch); });
+}
+
+/// closest_piece, out of line: the pieces of a ray split by the frame.
+template <class View>
+[[gnu::noinline]] bool closest_piece_outlined(const View& view, const Ray& ray, Hit& hit, TraversalScratch& scratch) {
+  return closest_piece(view, ray, hit, scratch);
+}
+
+/// any_piece, out of line.
+template <class View>
+[[gnu::noinline]] bool any_piece_outlined(const View& view, const Ray& ray, TraversalScratch& scratch) {
+  return any_piece(view, ray, scratch);
+}
+
+}  // namespace detail
+
 /// Nearest hit of `ray` in (ray.tmin, ray.tmax), an exact tie in t going to
 /// the lowest primitive id (tie_bound), so that every grid gives the same
-/// hit. Tested in the grid's tracing frame (closest_in_frame). Each primitive is tested at most once per ray (mailbox); the walk
+/// hit. Tested in the grid's tracing frame (closest_in_frame). Each
+/// primitive is tested at most once per ray piece (mailbox); the walk
 /// stops as soon as the best hit lies within the current cell. Returns
 /// hit.found(). Precondition: is_valid_ray(ray) (callers reject NaN rays
 /// before).
 template <class View>
 bool intersect_closest(const View& view, const Ray& ray, Hit& hit, TraversalScratch& scratch) {
   ++scratch.stats.rays;
-  return closest_in_frame(view.grid_info().frame_magnitude, ray, hit, [&](const Ray& piece, Hit& h) {
-    h = Hit{};
-    h.t = piece.tmax;
-    const WatertightRay w(piece);
-    scratch.mailbox.next_ray();
-    const bool found = detail::with_axes(w, [&]<int KX, int KY, int KZ>() {
-      return detail::intersect_closest_axes<KX, KY, KZ>(view, piece, w, h, scratch);
-    });
-    if (!found) h = Hit{};
-    return found;
+  const float frame = view.grid_info().frame_magnitude;
+  if (max_component(abs(ray.origin)) <= frame) [[likely]]
+    return detail::closest_piece(view, ray, hit, scratch);
+  return closest_in_frame(frame, ray, hit, [&](const Ray& piece, Hit& h) {
+    return detail::closest_piece_outlined(view, piece, h, scratch);
   });
 }
 
@@ -878,13 +914,11 @@ bool intersect_closest(const View& view, const Ray& ray, Hit& hit, TraversalScra
 template <class View>
 bool intersect_any(const View& view, const Ray& ray, TraversalScratch& scratch) {
   ++scratch.stats.rays;
-  return any_in_frame(view.grid_info().frame_magnitude, ray, [&](const Ray& piece) {
-    const WatertightRay w(piece);
-    scratch.mailbox.next_ray();
-    return detail::with_axes(w, [&]<int KX, int KY, int KZ>() {
-      return detail::intersect_any_axes<KX, KY, KZ>(view, piece, w, scratch);
-    });
-  });
+  const float frame = view.grid_info().frame_magnitude;
+  if (max_component(abs(ray.origin)) <= frame) [[likely]]
+    return detail::any_piece(view, ray, scratch);
+  return any_in_frame(frame, ray,
+                      [&](const Ray& piece) { return detail::any_piece_outlined(view, piece, scratch); });
 }
 
 /// The traversal's entry points over one view type `V`, for explicit
