@@ -1103,11 +1103,20 @@ def section_cone_weight(src):
          "12.02 to 11.83."])
 
 
+def stadium_summary(body):
+    """The close of an A/B section's first note (ab_test_rows' `body`): grid / Embree before and after over the
+    stadium scenes (file names with "_floor"), geometric mean and worst, and the scenes above 2x after."""
+    stadium = [b for b in body if "_floor" in b[0]]
+    over = [b[0] + f" ({b[2]})" for b in body if float(b[2]) > 2.0]
+    return (f". Over the {len(stadium)} stadium scenes the geometric mean of grid / Embree goes from "
+            f"{geometric_mean(float(b[1]) for b in stadium):.2f} to {geometric_mean(float(b[2]) for b in stadium):.2f}, "
+            f"from {max(float(b[1]) for b in stadium):.2f} to {max(float(b[2]) for b in stadium):.2f} at the worst. "
+            "Above 2x Embree's time after: " + (", ".join(over) if over else "none") + ".")
+
+
 def section_nested_floors(src):
     name = "nested-floors-ab-2core.csv"
     body, faster, slower = ab_test_rows(name)
-    stadium = [b for b in body if "_floor" in b[0]]
-    over = [b[0] + f" ({b[2]})" for b in body if float(b[2]) > 2.0]
     return ab_section(
         src, "Nested scales: an object on its own ground on a stadium floor",
         "Before the top grid is built, the scene's few large primitives are set beside it and the top grid covers "
@@ -1119,11 +1128,7 @@ def section_nested_floors(src):
         "The build before against this one:", name,
         ["scene", "grid / Embree, before", "grid / Embree, nested split", "grid time, new / old",
          "tests per ray, old / new"], body,
-        [faster_slower(body, faster, slower)
-         + f". Over the {len(stadium)} stadium scenes the geometric mean of grid / Embree goes from "
-         f"{geometric_mean(float(b[1]) for b in stadium):.2f} to {geometric_mean(float(b[2]) for b in stadium):.2f}, "
-         f"from {max(float(b[1]) for b in stadium):.2f} to {max(float(b[2]) for b in stadium):.2f} at the worst. "
-         "Above 2x Embree's time after: " + (", ".join(over) if over else "none") + ".",
+        [faster_slower(body, faster, slower) + stadium_summary(body),
          "- What keeps tessellated Balls on a floor above 2x: the cells' conservative margin grows with the "
          "scene's largest coordinate (core/grid.cpp, magnitude_eps: a ray from the far floor finds its entry "
          "cell with that rounding), so the floor's size inflates the cells over the balls. `raynode scene info "
@@ -1135,8 +1140,6 @@ def section_nested_floors(src):
 def section_tracing_frame(src):
     name = "tracing-frame-ab-2core.csv"
     body, faster, slower = ab_test_rows(name)
-    stadium = [b for b in body if "_floor" in b[0]]
-    over = [b[0] + f" ({b[2]})" for b in body if float(b[2]) > 2.0]
     alone = next(b[2] for b in body if b[0] == "balls:3 -t 1")
     return ab_section(
         src, "The tracing frame: a far floor no longer widens the object's cells",
@@ -1149,10 +1152,7 @@ def section_tracing_frame(src):
         "same frame, so the modes' images stay identical. The build before against this one:", name,
         ["scene", "grid / Embree, before", "grid / Embree, framed", "grid time, new / old",
          "tests per ray, old / new"], body,
-        [faster_slower(body, faster, slower)
-         + f". Over the {len(stadium)} stadium scenes the geometric mean of grid / Embree goes from "
-         f"{geometric_mean(float(b[1]) for b in stadium):.2f} to {geometric_mean(float(b[2]) for b in stadium):.2f}. "
-         "Above 2x Embree's time after: " + (", ".join(over) if over else "none") + ".",
+        [faster_slower(body, faster, slower) + stadium_summary(body),
          "- `raynode scene info FILE --grid` on tessellated Balls (balls:3 -t 1) with a floor 1000x its width: "
          "16,988 references, against 29,281 before and 16,986 without the floor; at 100x, 16,988 against 17,892. "
          f"What remains above 2x is tessellated Balls' own cost ({alone}x without a floor in the same runs), "
