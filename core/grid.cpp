@@ -894,7 +894,7 @@ Grid build_adaptive_grid(const Database& db, const GridParams& params) {
   // The frame: the top grid's own box when it is the objects' box (the
   // large primitives split off, as frame_magnitude does), else computed.
   top.frame_magnitude = params.frame_magnitude > 0 ? params.frame_magnitude
-                        : params.large_beside_top && params.resolution[0] <= 0 ? 2.0f * coordinate_magnitude(top.bounds)
+                        : params.large_beside_top && params.resolution[0] <= 0 ? kFrameScale * coordinate_magnitude(top.bounds)
                                                                                : frame_magnitude(db);
   grid.info = top;
   grid.cell_start.push_back(0);
@@ -916,7 +916,7 @@ float frame_magnitude(const Database& db) {
   const GridParams params;
   const AdaptiveBuilder builder(db, params, scratch);
   std::vector<std::uint32_t> small, large;
-  return 2.0f * coordinate_magnitude(split_scene(builder, grid_bounds(db), listed_ids(db), small, large));
+  return kFrameScale * coordinate_magnitude(split_scene(builder, grid_bounds(db), listed_ids(db), small, large));
 }
 
 Grid build_grid(const Database& db, const GridParams& params) {

@@ -370,12 +370,17 @@ inline float coordinate_magnitude(const Bounds3& b) {
   return std::max(max_component(abs(b.lower)), max_component(abs(b.upper)));
 }
 
-/// The tracing frame of `db` (TopGridInfo::frame_magnitude): twice the
-/// coordinate magnitude of the box its objects fill once its few large
-/// primitives (a floor, a stadium) are set aside, as the adaptive grid's top
-/// grid covers it, whatever the grid kind; twice, so that the frame's edge
-/// lies well away from every object and a piece of a ray before it meets
-/// none. World units.
+/// The tracing frame's size against the objects' box (frame_magnitude).
+/// Above 1, so that the frame's edge lies well away from every object and a
+/// piece of a ray before it meets none; the larger, the fewer rays are split
+/// (a ray from the ground near the objects is not) and the wider every
+/// cell's margin for rounding, 8 float spacings of the frame's magnitude.
+inline constexpr float kFrameScale = 4.0f;
+
+/// The tracing frame of `db` (TopGridInfo::frame_magnitude): kFrameScale
+/// times the coordinate magnitude of the box its objects fill once its few
+/// large primitives (a floor, a stadium) are set aside, as the adaptive
+/// grid's top grid covers it, whatever the grid kind. World units.
 float frame_magnitude(const Database& db);
 
 /// Fills grid.empty_distance from grid.cell_start (see Grid); with

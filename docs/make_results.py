@@ -1144,7 +1144,7 @@ def section_tracing_frame(src):
     return ab_section(
         src, "The tracing frame: a far floor no longer widens the object's cells",
         "The cells' margin for rounding was 8 float spacings of the scene's largest coordinate, which a stadium "
-        "floor sets. It is now 8 spacings of the tracing frame's: a cube about the origin twice as wide as the "
+        "floor sets. It is now 8 spacings of the tracing frame's: a cube about the origin four times as wide as the "
         "one that holds the objects once the scene's few large primitives are set aside. A ray whose origin lies "
         "outside the frame (a point of the far floor) is tested in two pieces: up to the frame from its own "
         "origin, and on from where its line enters the frame, that point computed in double (core/traverse.h, "
