@@ -382,7 +382,7 @@ void set_cell_size(GridInfo& info) {
 }
 
 // 8 ulps of the larger of the top grid's box `b`'s coordinate magnitude and
-// the tracing frame's (GridInfo::frame_magnitude): the rounding of a walk
+// the tracing frame's (TopGridInfo::frame_magnitude): the rounding of a walk
 // whose ray comes from within either cube (header comment).
 double magnitude_eps(const Bounds3& b, float frame) {
   return 8.0 * std::numeric_limits<float>::epsilon() * std::max(coordinate_magnitude(b), frame);
