@@ -674,6 +674,10 @@ inline void walk_cells(const View& view, const Ray& ray, Visit& visit) {
   walk_grid(view.grid_info(), cell_order_of(view), ray, visit);
 }
 
+/// True when `ray` is tested whole in the frame of magnitude `frame`
+/// because its origin lies inside the frame's cube (framed_ray's fast path).
+inline bool origin_in_frame(float frame, const Ray& ray) { return max_component(abs(ray.origin)) <= frame; }
+
 /// The tracing frame (TopGridInfo::frame_magnitude `frame`): a ray whose
 /// origin lies outside the cube [-frame, frame]^3 and whose line (t >= 0)
 /// enters it is tested in two pieces: up to the entry from its own origin,
@@ -692,7 +696,7 @@ inline void walk_cells(const View& view, const Ray& ray, Visit& visit) {
 /// with `framed` = `ray` when the ray is tested whole.
 [[gnu::noinline]] inline double framed_ray(float frame, const Ray& ray, Ray& framed) {
   framed = ray;
-  if (max_component(abs(ray.origin)) <= frame || !(frame > 0.0f)) return 0.0;
+  if (origin_in_frame(frame, ray) || !(frame > 0.0f)) return 0.0;
   double t0 = -std::numeric_limits<double>::infinity(), t1 = std::numeric_limits<double>::infinity();
   for (int a = 0; a < 3; ++a) {
     const double o = ray.origin[a], d = ray.direction[a];
@@ -712,6 +716,14 @@ inline void walk_cells(const View& view, const Ray& ray, Visit& visit) {
   return t0;
 }
 
+/// The piece of `ray` before the frame entry at parameter s (framed_ray):
+/// up to one float above s, so that it overlaps the framed piece.
+inline Ray before_frame(const Ray& ray, double s) {
+  Ray before = ray;
+  before.tmax = std::min(ray.tmax, std::nextafter(float(s), kInfinity));
+  return before;
+}
+
 /// The closest hit of `ray` in the tracing frame `frame` (framed_ray):
 /// closest(const Ray& piece, Hit& hit) -> bool (the nearest hit of a
 /// piece, its t in that piece's parameter) for the whole ray, or for the
@@ -720,13 +732,12 @@ inline void walk_cells(const View& view, const Ray& ray, Visit& visit) {
 /// the lower primitive id.
 template <class Closest>
 bool closest_in_frame(float frame, const Ray& ray, Hit& hit, Closest&& closest) {
-  if (max_component(abs(ray.origin)) <= frame) [[likely]]
+  if (origin_in_frame(frame, ray)) [[likely]]
     return closest(ray, hit);
   Ray framed;
   const double s = framed_ray(frame, ray, framed);
   if (s == 0.0) return closest(ray, hit);
-  Ray before = ray;
-  before.tmax = std::min(ray.tmax, std::nextafter(float(s), kInfinity));
+  const Ray before = before_frame(ray, s);
   Hit near;
   const bool found_near = before.tmin <= before.tmax && closest(before, near);
   if (found_near && double(near.t) < s * (1.0 - 0x1p-20)) {
@@ -750,13 +761,12 @@ bool closest_in_frame(float frame, const Ray& ray, Hit& hit, Closest&& closest) 
 /// piece in it (closest_in_frame).
 template <class Any>
 bool any_in_frame(float frame, const Ray& ray, Any&& any) {
-  if (max_component(abs(ray.origin)) <= frame) [[likely]]
+  if (origin_in_frame(frame, ray)) [[likely]]
     return any(ray);
   Ray framed;
   const double s = framed_ray(frame, ray, framed);
   if (s == 0.0) return any(ray);
-  Ray before = ray;
-  before.tmax = std::min(ray.tmax, std::nextafter(float(s), kInfinity));
+  const Ray before = before_frame(ray, s);
   if (before.tmin <= before.tmax && any(before)) return true;
   return framed.tmin <= framed.tmax && any(framed);
 }
@@ -901,7 +911,7 @@ template <class View>
 bool intersect_closest(const View& view, const Ray& ray, Hit& hit, TraversalScratch& scratch) {
   ++scratch.stats.rays;
   const float frame = view.grid_info().frame_magnitude;
-  if (max_component(abs(ray.origin)) <= frame) [[likely]]
+  if (origin_in_frame(frame, ray)) [[likely]]
     return detail::closest_piece(view, ray, hit, scratch);
   return closest_in_frame(frame, ray, hit, [&](const Ray& piece, Hit& h) {
     return detail::closest_piece_outlined(view, piece, h, scratch);
@@ -915,7 +925,7 @@ template <class View>
 bool intersect_any(const View& view, const Ray& ray, TraversalScratch& scratch) {
   ++scratch.stats.rays;
   const float frame = view.grid_info().frame_magnitude;
-  if (max_component(abs(ray.origin)) <= frame) [[likely]]
+  if (origin_in_frame(frame, ray)) [[likely]]
     return detail::any_piece(view, ray, scratch);
   return any_in_frame(frame, ray,
                       [&](const Ray& piece) { return detail::any_piece_outlined(view, piece, scratch); });
