@@ -1,7 +1,10 @@
 // `raynode bench mpi`: MPI's latency and bandwidth on this machine, raw and
-// through the MPI transport as the nodes see it, and a machine description
-// (--machine) with the transport's figures, so that the emulator can
-// predict what the MPI runs measure. Run under `mpirun -np 2` (ranks past 1
+// through the MPI transport as the nodes see it, what a node's work costs
+// on ranks that share this machine (a probe: the co-running slowdown and the
+// time of a look for mail), and a machine description (--machine) with
+// these figures, so that the emulator can
+// predict what the MPI runs measure. Run under `mpirun -np N` as the runs it
+// predicts (the latency is measured between ranks 0 and 1; the others
 // wait); only rank 0 prints and writes.
 #include <fmt/core.h>
 
@@ -17,7 +20,11 @@
 #include "apps/node_runs.h"
 #include "apps/output_files.h"
 #include "apps/transports.h"
+#include "core/database.h"
+#include "core/grid.h"
+#include "core/scene_source.h"
 #include "nodes/machine.h"
+#include "nodes/network.h"
 
 namespace raynode::apps {
 
@@ -28,6 +35,10 @@ struct BenchMpiOptions {
   int repeats = 2000;
   std::string machine_out;
   std::string json_path;
+  std::string probe = "teapot:8";  ///< the co-running probe's scene
+  int probe_tessellate = 0;
+  int probe_size = 256;            ///< pixels on a side
+  int probe_rounds = 5;            ///< 0: no probe, corun_slowdown 1
 };
 
 /// A message's one-way time through `transport` (half a round trip between
@@ -41,6 +52,83 @@ double transport_one_way_s(nodes::Transport& transport, std::size_t bytes, int r
   mp.node_memory = 8 * std::max<std::size_t>(bytes, 256) + (std::size_t(1) << 20);
   mp.timeout_s = 120;
   return node_round_trip_s(mp, bytes, std::uint64_t(repeats)) / 2;
+}
+
+/// The probe's figures (rank 0): medians over its rounds.
+struct Probe {
+  double alone_s = 0;      ///< one node's busy seconds, alone on the machine
+  double shared_s = 0;     ///< the same with every rank running one at once
+  double transport_s = 0;  ///< the nodes' busy seconds summed, one node per rank on the transport
+  double mail_checks = 0;  ///< the nodes' looks for mail in that run
+  double corun_slowdown = 1;  ///< shared / alone
+  double poll_s = 0;          ///< (transport - corun_slowdown x alone) / mail_checks, >= 0
+  std::vector<double> round_slowdowns, round_poll_s;
+};
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/// The probe: replicated mode's node program on the probe scene (its view
+/// at probe_size pixels, adaptive grid, CPU clock, free network), each
+/// round in three phases: one emulated node on each rank in turn while the
+/// others sleep (alone); one on every rank at once (shared: the ranks share
+/// this machine's caches and memory bandwidth); one node per rank on
+/// `transport` (the same pixels and rays as one node alone, now with the
+/// transport's looks for mail). Busy seconds are the nodes' CPU time. So a
+/// node's work on ranks costs corun_slowdown x its work alone, plus poll_s
+/// per look for mail: the emulator's corun_slowdown and network poll_s.
+Probe measure_probe(const BenchMpiOptions& o, nodes::Transport& transport) {
+  Probe p;
+  if (o.probe_rounds == 0) return p;
+  const core::Database db = core::make_database(core::load_scene(tracing_source(o.probe, o.probe_tessellate)));
+  core::GridParams gp;
+  gp.kind = core::GridKind::kAdaptive;
+  const core::Grid grid = core::build_grid(db, gp);
+  NodeRunOptions no;
+  no.width = no.height = o.probe_size;
+  no.clock = "cpu";
+  no.network = "none";
+  no.node_memory = "256MiB";
+  const NodeRunSpec local = make_node_run_spec(no);
+  NodeRunSpec ranked = local;
+  ranked.machine.transport = &transport;
+  const std::uint32_t ranks = transport.processes();
+  std::vector<double> checks;  // rank 0: the transport phase's looks for mail, per round
+  auto one_node = [&] { return run_node_mode(db, grid, "replicated", local, 1).work_s; };
+  auto on_ranks = [&] {
+    const NodeRun r = run_node_mode(db, grid, "replicated", ranked, ranks);
+    checks.push_back(double(r.mail_checks));
+    return r.work_s;
+  };
+  (void)one_node();  // warms the caches and pages in the database
+  const std::vector<std::vector<double>> f = mpi_phase_figures({one_node, one_node, on_ranks}, o.probe_rounds);
+  if (f[0].empty()) return p;  // not rank 0
+  std::vector<double> alone, shared, ranked_s;
+  for (int round = 0; round < o.probe_rounds; ++round) {
+    double a = 0, s = 0;
+    for (std::uint32_t r = 0; r < ranks; ++r) {
+      a += f[0][std::size_t(round) * ranks + r] / ranks;
+      s += f[1][std::size_t(round) * ranks + r] / ranks;
+    }
+    const double t = f[2][std::size_t(round) * ranks];  // rank 0 holds the run's summed busy time
+    const double slowdown = a > 0 ? s / a : 1.0;
+    alone.push_back(a), shared.push_back(s), ranked_s.push_back(t);
+    p.round_slowdowns.push_back(slowdown);
+    p.round_poll_s.push_back(checks[std::size_t(round)] > 0
+                                 ? std::max(0.0, t - std::max(1.0, slowdown) * a) / checks[std::size_t(round)]
+                                 : 0.0);
+  }
+  p.alone_s = median(alone);
+  p.shared_s = median(shared);
+  p.transport_s = median(ranked_s);
+  p.mail_checks = median(checks);
+  p.corun_slowdown = median(p.round_slowdowns);
+  p.poll_s = median(p.round_poll_s);
+  return p;
 }
 
 void run_bench_mpi(const BenchMpiOptions& o) {
@@ -66,6 +154,9 @@ void run_bench_mpi(const BenchMpiOptions& o) {
     const double via = transport_one_way_s(*transport, bytes, o.repeats);
     rows.push_back({bytes, raw, via});
   }
+  const Probe probe = measure_probe(o, *transport);
+  // The emulator takes a slowdown of at least 1: a measured one below is the host's noise.
+  const double slowdown = std::max(1.0, probe.corun_slowdown);
   if (!writer) return;
   // Latency: the smallest message's one-way time; per byte: the slope to the largest.
   const Row& small = rows.front();
@@ -83,6 +174,13 @@ void run_bench_mpi(const BenchMpiOptions& o) {
     fmt::print("transport: latency {:.2f} us, {:.3g} s per byte ({:.0f} MB/s); raw MPI: latency {:.2f} us, {:.0f} MB/s\n",
                latency * 1e6, per_byte, per_byte > 0 ? 1e-6 / per_byte : 0.0, small.mpi_s * 1e6,
                slope(&Row::mpi_s) > 0 ? 1e-6 / slope(&Row::mpi_s) : 0.0);
+    if (o.probe_rounds > 0)
+      fmt::print("probe: {} at {}x{}, replicated, median of {} rounds: one node {:.4f} s alone, {:.4f} s beside "
+                 "{} others (co-running slowdown {:.3f}); {} nodes on ranks {:.4f} s over {:.0f} looks for mail "
+                 "({:.3f} us a look)\n",
+                 o.probe, o.probe_size, o.probe_size, o.probe_rounds, probe.alone_s, probe.shared_s,
+                 transport->processes() - 1, probe.corun_slowdown, transport->processes(), probe.transport_s,
+                 probe.mail_checks, probe.poll_s * 1e6);
   }
   for (const Row& r : rows)
     table.push_back({{"bytes", r.bytes}, {"mpi_one_way_s", r.mpi_s}, {"transport_one_way_s", r.transport_s}});
@@ -91,19 +189,45 @@ void run_bench_mpi(const BenchMpiOptions& o) {
                                          {"repeats", o.repeats},
                                          {"rows", table},
                                          {"transport_latency_s", latency},
-                                         {"transport_per_byte_s", per_byte}}
+                                         {"transport_per_byte_s", per_byte},
+                                         {"probe",
+                                          {{"scene", o.probe},
+                                           {"tessellate", o.probe_tessellate},
+                                           {"size", o.probe_size},
+                                           {"rounds", o.probe_rounds},
+                                           {"alone_s", probe.alone_s},
+                                           {"shared_s", probe.shared_s},
+                                           {"transport_s", probe.transport_s},
+                                           {"mail_checks", probe.mail_checks},
+                                           {"round_slowdowns", probe.round_slowdowns},
+                                           {"round_poll_s", probe.round_poll_s},
+                                           {"corun_slowdown", probe.corun_slowdown},
+                                           {"poll_s", probe.poll_s}}}}
                                   .dump(2) +
                               "\n");
   if (!o.machine_out.empty()) {
+    // The figures are this host's seconds: the tracing speed they go with
+    // lets the model clock, whose seconds are the cost model's, scale them
+    // to its own (as the ipsc2 preset is scaled).
+    const double seconds_per_ray = nodes::calibrate_seconds_per_ray();
     const nlohmann::json machine{
         {"name", "mpi-measured"},
         {"about", fmt::format("This host's MPI transport as `raynode bench mpi` measured it ({} ranks, {} round trips "
                               "per size): a message's one-way time through the transport, latency at {} B plus the "
-                              "slope to {} B. CPU clock, as the MPI runs measure wall time.",
-                              transport->processes(), o.repeats, small.bytes, large.bytes)},
+                              "slope to {} B; a node's co-running slowdown and its time per look for mail, from {} at "
+                              "{}x{} on {} ranks (median of {} rounds); seconds of this host, whose tracing speed "
+                              "seconds_per_ray gives. CPU clock, as the MPI runs measure wall time.",
+                              transport->processes(), o.repeats, small.bytes, large.bytes, o.probe, o.probe_size,
+                              o.probe_size, transport->processes(), o.probe_rounds)},
         {"clock", "cpu"},
+        {"corun_slowdown", slowdown},
         {"network",
-         {{"latency_s", latency}, {"per_byte_s", per_byte}, {"per_hop_s", 0.0}, {"service_s", 0.0}}}};
+         {{"latency_s", latency},
+          {"per_byte_s", per_byte},
+          {"per_hop_s", 0.0},
+          {"service_s", 0.0},
+          {"poll_s", probe.poll_s},
+          {"seconds_per_ray", seconds_per_ray}}}};
     files->text(machine_out, machine.dump(2) + "\n");
   }
   files->commit();
@@ -124,6 +248,21 @@ void register_bench_mpi_command(CLI::App& app) {
   c->add_option("--repeats", o->repeats, "Round trips per size")->check(CLI::Range(1, 10000000))->capture_default_str();
   c->add_option("--machine-out", o->machine_out,
                 "Write a machine description (--machine FILE) with the transport's latency and per-byte time");
+  c->add_option("--probe", o->probe,
+                "The probe's scene (NFF or mesh file, or SPD name[:size]): rendered by one node on each rank alone, "
+                "then on all ranks at once, then by one node per rank over MPI; gives the machine description's "
+                "corun_slowdown and poll_s")
+      ->capture_default_str();
+  c->add_option("--probe-tessellate", o->probe_tessellate, "Tessellate the probe's spheres and cones (SPD -t R)")
+      ->check(CLI::Range(0, 1000))
+      ->capture_default_str();
+  c->add_option("--probe-size", o->probe_size, "The probe's image, pixels on a side")
+      ->check(CLI::Range(1, 8192))
+      ->capture_default_str();
+  c->add_option("--probe-rounds", o->probe_rounds, "Probe rounds (each: every rank alone in turn, then all at once); "
+                                                   "0: no probe, corun_slowdown 1 and poll_s 0")
+      ->check(CLI::Range(0, 1000))
+      ->capture_default_str();
   add_json_option(*c, o->json_path, "The table");
   c->callback([o] { run_bench_mpi(*o); });
 }

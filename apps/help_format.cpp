@@ -75,7 +75,8 @@ const std::map<std::string, std::string>& option_groups() {
       {"skip-empty", "Mode"}, {"pack-cells", "Mode"},
       // The emulated machine
       {"machine", "Machine"}, {"node-memory", "Machine"}, {"network", "Machine"}, {"network-scale", "Machine"}, {"contention", "Machine"},
-      {"topology", "Machine"}, {"clock", "Machine"}, {"calibrate", "Machine"}, {"schedule-window", "Machine"},
+      {"topology", "Machine"}, {"clock", "Machine"}, {"corun-slowdown", "Machine"}, {"calibrate", "Machine"},
+      {"schedule-window", "Machine"},
       {"mail-wakeups", "Machine"}, {"stall-timeout", "Machine"}, {"work-item", "Machine"},
       {"work-requests", "Machine"}, {"work-grants", "Machine"}, {"submaps", "Machine"},
       // The paper's two algorithms

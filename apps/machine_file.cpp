@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "apps/commands.h"
+#include "nodes/machine.h"
 
 namespace raynode::apps {
 
@@ -56,15 +57,24 @@ MachineDescription load_machine(const std::string& name) {
     }
     throw bad(key, fmt::format("must be one of {}, got '{}'", names, s));
   };
-  static const std::set<std::string> known{"name", "about", "node_memory", "page_size", "topology", "clock", "network"};
+  static const std::set<std::string> known{"name",     "about", "node_memory",    "page_size",
+                                           "topology", "clock", "corun_slowdown", "network"};
   for (const auto& [key, value] : j.items())
-    if (!known.count(key)) throw bad(key, "is not a machine key (name, about, node_memory, page_size, topology, clock, network)");
+    if (!known.count(key))
+      throw bad(key,
+                "is not a machine key (name, about, node_memory, page_size, topology, clock, corun_slowdown, network)");
   MachineDescription m;
   m.name = j.contains("name") ? text_of("name", {}) : name;
   if (j.contains("about")) text_of("about", {});
   if (j.contains("node_memory")) m.node_memory = text_of("node_memory", {});
   if (j.contains("topology")) m.topology = text_of("topology", {"hypercube", "ring", "torus"});
   if (j.contains("clock")) m.clock = text_of("clock", {"cpu", "model"});
+  if (j.contains("corun_slowdown")) {
+    const nlohmann::json& v = j.at("corun_slowdown");
+    if (!v.is_number() || !(v.get<double>() >= 1 && v.get<double>() <= nodes::kMaxCorunSlowdown))
+      throw bad("corun_slowdown", fmt::format("must be a number from 1 to {}", nodes::kMaxCorunSlowdown));
+    m.corun_slowdown = v.get<double>();
+  }
   if (j.contains("page_size")) {
     const nlohmann::json& v = j.at("page_size");
     if (!v.is_number_unsigned() || v.get<std::uint64_t>() > 0xffffffffull)
@@ -78,7 +88,7 @@ MachineDescription load_machine(const std::string& name) {
     } else if (v.is_object()) {
       NetworkFigures f;
       static const std::set<std::string> figures{"latency_s", "per_byte_s", "per_hop_s", "service_s", "fault_s",
-                                                 "send_overhead_s", "seconds_per_ray"};
+                                                 "send_overhead_s", "poll_s", "seconds_per_ray"};
       for (const auto& [key, value] : v.items()) {
         if (key == "contention") {
           if (!value.is_boolean()) throw bad("network.contention", "must be true or false");
@@ -87,7 +97,7 @@ MachineDescription load_machine(const std::string& name) {
         }
         if (!figures.count(key))
           throw bad("network." + key, "is not a network figure (latency_s, per_byte_s, per_hop_s, service_s, "
-                                      "fault_s, send_overhead_s, seconds_per_ray, contention)");
+                                      "fault_s, send_overhead_s, poll_s, seconds_per_ray, contention)");
         if (!value.is_number() || !std::isfinite(value.get<double>()) || value.get<double>() < 0)
           throw bad("network." + key, "must be a finite number of seconds >= 0");
       }
@@ -98,6 +108,7 @@ MachineDescription load_machine(const std::string& name) {
       f.service_s = get("service_s", 0);
       f.fault_s = get("fault_s", -1);
       f.send_overhead_s = get("send_overhead_s", 0);
+      f.poll_s = get("poll_s", 0);
       f.seconds_per_ray = get("seconds_per_ray", 0);
       m.network_figures = f;
     } else {

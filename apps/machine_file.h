@@ -8,10 +8,14 @@
 //    "page_size": 1024,                         (svm page, bytes)
 //    "topology": "hypercube|ring|torus",
 //    "clock": "cpu|model",
+//    "corun_slowdown": x,                       (>= 1: under the model clock, the factor on
+//                                                a node's work when more than one node runs;
+//                                                nodes sharing a host's cores and memory)
 //    "network": "none|ipsc2|cluster"            (a preset, or its figures:)
 //             | {"latency_s": s, "per_byte_s": s, "per_hop_s": s,
 //                "service_s": s, "fault_s": s,  (fault_s optional)
 //                "send_overhead_s": s,          (optional: the sender's CPU per message)
+//                "poll_s": s,                   (optional: a node's CPU per look for mail)
 //                "contention": true|false,      (optional, default false)
 //                "seconds_per_ray": s}}         (optional: that machine's one-node
 //                                                tracing speed; costs are then scaled
@@ -28,7 +32,7 @@ namespace raynode::apps {
 
 /// A network described by its figures (nodes::NetworkModel's, before scaling).
 struct NetworkFigures {
-  double latency_s = 0, per_byte_s = 0, per_hop_s = 0, service_s = 0, send_overhead_s = 0;
+  double latency_s = 0, per_byte_s = 0, per_hop_s = 0, service_s = 0, send_overhead_s = 0, poll_s = 0;
   double fault_s = -1;          ///< < 0: the cost model's
   bool contention = false;      ///< links held while a message streams (nodes/links.h)
   double seconds_per_ray = 0;   ///< > 0: scale every cost by (this host's seconds per ray) / this
@@ -39,6 +43,7 @@ struct MachineDescription {
   std::string name;
   std::optional<std::string> node_memory, topology, clock;
   std::optional<std::uint32_t> page_size;
+  std::optional<double> corun_slowdown;       ///< nodes::MachineParams::corun_slowdown
   std::optional<std::string> network;          ///< a preset name
   std::optional<NetworkFigures> network_figures;  ///< or its figures
 };

@@ -37,6 +37,7 @@ void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) 
          if (m.page_size) o.page_size = *m.page_size;
          if (m.topology) o.topology = *m.topology;
          if (m.clock) o.clock = *m.clock;
+         if (m.corun_slowdown) o.corun_slowdown = *m.corun_slowdown;
          if (m.network) o.network = *m.network;
          if (m.network_figures) o.network = "custom", o.network_figures = *m.network_figures;
        },
@@ -110,6 +111,12 @@ void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) 
                "model (operation counts x calibrated unit costs: repeatable, free of the host's thread switches; "
                "see `raynode bench cost-model`)")
       ->check(CLI::IsMember({"cpu", "model"}))
+      ->capture_default_str();
+  c.add_option("--corun-slowdown", o.corun_slowdown,
+               "Model clock, more than one node: a node's work costs this many times its one-node price (nodes "
+               "sharing a host's cores, caches and memory bandwidth, as MPI ranks on one machine; `raynode bench mpi` "
+               "measures it); 1 for nodes that share nothing")
+      ->check(finite_range(1, nodes::kMaxCorunSlowdown))
       ->capture_default_str();
   c.add_option("--calibrate", o.calibrate,
                "Model clock: time a quarter-resolution sample of the scene with the sequential tracer before the "
@@ -212,6 +219,7 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
   } catch (const std::invalid_argument& e) {
     throw UsageError(std::string("--topology/--clock/--work-requests/--work-grants/--submaps: ") + e.what());
   }
+  m.corun_slowdown = o.corun_slowdown;
   m.timeout_s = o.timeout_s;
   m.stall_timeout_s = o.stall_timeout_s;
   m.schedule_window_s = o.schedule_window_us * 1e-6;
@@ -235,6 +243,7 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
     m.network.service_s = scale * f.service_s;
     m.network.fault_s = f.fault_s < 0 ? -1.0 : scale * f.fault_s;
     m.network.send_overhead_s = scale * f.send_overhead_s;
+    m.network.poll_s = scale * f.poll_s;
     m.network.contention = f.contention;
   } else {
     try {
@@ -307,6 +316,7 @@ NodeRun summarise(const modes::RunResult& r, modes::Mode mode, nodes::ComputeClo
   out.parallel_time_s = run.parallel_time_s;
   out.work_s = busy_sum(run);
   out.rays = r.render.stats.rays.total();
+  out.mail_checks = run.total().mail_checks;
   if (const std::vector<control::WorkStats>* work = r.work()) out.grants = grants_sum(*work);
   if (r.replicated) out.estimate_s = estimate_seconds(r.replicated->submaps, clock);
   if (mode == modes::Mode::kSvm) {

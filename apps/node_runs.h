@@ -81,6 +81,7 @@ struct NodeRunOptions {
   double schedule_window_us = 200;      ///< virtual-time scheduling window, microseconds
   std::string mail_wakeups = "auto";   ///< --mail-wakeups: auto, scheduled or immediate
   std::string clock = "cpu";            ///< cpu or model (nodes::ComputeClock)
+  double corun_slowdown = 1;            ///< model clock, > 1 node: factor on a node's work (nodes::MachineParams)
   std::string shadow_rays = "facing";   ///< facing or all (core::ShadowRays)
   std::string calibrate = "auto";       ///< model clock: auto, on or off (calibrate_model_clock)
   std::string work_requests = "ring";   ///< ring, last-grantor or off (nodes::WorkRequestRoute)
@@ -215,6 +216,7 @@ struct NodeRun {
   double parallel_time_s = 0;  ///< T_p, virtual seconds
   double work_s = 0;           ///< busy virtual seconds summed over the nodes
   std::uint64_t rays = 0;      ///< rays traced, all kinds
+  std::uint64_t mail_checks = 0;  ///< the nodes' looks for mail, summed (nodes::NodeCounters::mail_checks)
   std::optional<std::uint64_t> grants;  ///< replicated, svm: work items granted
   /// replicated, svm with --submaps balanced: the host's load estimate,
   /// traced before the run and outside virtual time, in the run's clock's

@@ -287,6 +287,7 @@ const std::vector<ModeOptionRule>& mode_option_rules() {
       {"--schedule-window", kNodeModes, "the emulated machine's scheduler"},
       {"--mail-wakeups", kNodeModes, "the emulated machine's scheduler"},
       {"--clock", kNodeModes, "the emulated machine's virtual time"},
+      {"--corun-slowdown", kNodeModes, "the emulated machine's virtual time"},
       {"--stall-timeout", kNodeModes, "a run on the emulated machine"},
       {"--transport", kNodeModes, "where the machine's participants run"},
       {"--work-item", kControl, "static submaps and work requests"},

@@ -53,6 +53,15 @@ double mpi_ping_pong_s(std::size_t bytes, int repeats) {
 #endif
 }
 
+std::vector<std::vector<double>> mpi_phase_figures(const std::vector<std::function<double()>>& phases, int rounds) {
+#ifdef RAYNODE_HAVE_MPI
+  return mpi::phase_figures(phases, rounds);
+#else
+  (void)phases, (void)rounds;
+  throw UsageError("this raynode was built without MPI");
+#endif
+}
+
 void end_transport_session(int exit_code) {
 #ifdef RAYNODE_HAVE_MPI
   mpi::end_session(exit_code);

@@ -3,8 +3,10 @@
 // node r on MPI rank r and the host on rank 0 (mpi/mpi_transport.h).
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "nodes/transport.h"
 
@@ -23,6 +25,11 @@ int transport_ranks();
 /// mean round trip of `repeats` messages of `bytes` bytes, wall seconds, on
 /// rank 0 (0 elsewhere). Throws UsageError in a build without MPI.
 double mpi_ping_pong_s(std::size_t bytes, int repeats);
+/// mpi::phase_figures: phases[0] on each rank in turn, the others on all
+/// ranks at once, `rounds` times; on rank 0 per phase the figures at index
+/// round * ranks + rank (empty elsewhere). Throws UsageError in a build
+/// without MPI.
+std::vector<std::vector<double>> mpi_phase_figures(const std::vector<std::function<double()>>& phases, int rounds);
 /// At the end of main: ends MPI if it was started (a failure on one rank
 /// aborts the others, which would wait for it for ever).
 void end_transport_session(int exit_code);

@@ -102,6 +102,56 @@ double ping_pong_s(std::size_t bytes, int repeats) {
   return rank == 0 && repeats > 0 ? t / (2.0 * repeats) : 0.0;
 }
 
+namespace {
+
+/// A barrier that waits asleep: MPI_Ibarrier tested every 0.2 ms.
+void sleeping_barrier() {
+  MPI_Request request = MPI_REQUEST_NULL;
+  check(MPI_Ibarrier(MPI_COMM_WORLD, &request), "MPI_Ibarrier");
+  for (int done = 0;;) {
+    check(MPI_Test(&request, &done, MPI_STATUS_IGNORE), "MPI_Test");
+    if (done) return;
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
+}
+
+}  // namespace
+
+std::vector<std::vector<double>> phase_figures(const std::vector<std::function<double()>>& phases, int rounds) {
+  const int rank = world_rank(), size = world_size();
+  const std::size_t k = phases.size();
+  std::vector<double> mine;  // per round, per phase
+  for (int round = 0; round < rounds; ++round)
+    for (std::size_t phase = 0; phase < k; ++phase) {
+      double figure = 0;
+      if (phase == 0) {
+        for (int turn = 0; turn < size; ++turn) {
+          sleeping_barrier();
+          if (turn == rank) figure = phases[0]();
+        }
+      } else {
+        sleeping_barrier();
+        figure = phases[phase]();
+      }
+      mine.push_back(figure);
+    }
+  sleeping_barrier();
+  std::vector<double> all(rank == 0 ? mine.size() * std::size_t(size) : 0);
+  check(MPI_Gather(mine.data(), int(mine.size()), MPI_DOUBLE, all.data(), int(mine.size()), MPI_DOUBLE, 0,
+                   MPI_COMM_WORLD),
+        "MPI_Gather");
+  std::vector<std::vector<double>> out(k);
+  if (rank != 0) return out;
+  for (std::size_t phase = 0; phase < k; ++phase) {
+    out[phase].resize(std::size_t(rounds) * std::size_t(size));
+    for (int r = 0; r < size; ++r)
+      for (int round = 0; round < rounds; ++round)
+        out[phase][std::size_t(round) * std::size_t(size) + std::size_t(r)] =
+            all[std::size_t(r) * mine.size() + std::size_t(round) * k + phase];
+  }
+  return out;
+}
+
 struct MpiTransport::State {
   MPI_Comm comm = MPI_COMM_NULL;
   int rank = 0, size = 1;

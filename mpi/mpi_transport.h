@@ -13,9 +13,11 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "nodes/transport.h"
 
@@ -41,6 +43,14 @@ void end_session(int exit_code);
 /// over MPI_COMM_WORLD (ranks beyond 1 wait); rank 0 gets the figure, the
 /// others 0.
 double ping_pong_s(std::size_t bytes, int repeats);
+
+/// `rounds` times: phases[0] on each rank in turn while the others sleep
+/// (polling a barrier every 0.2 ms, so that they take no core and share no
+/// core's caches), then each later phase on every rank at once (it may be
+/// collective). A phase returns the figure it measured. Collective over
+/// MPI_COMM_WORLD. Returns on rank 0, per phase, the figures at index
+/// round * world_size() + rank; elsewhere, empty vectors.
+std::vector<std::vector<double>> phase_figures(const std::vector<std::function<double()>>& phases, int rounds);
 
 /// A nodes::Transport over a duplicate of MPI_COMM_WORLD: process = rank,
 /// node r on rank r, the host on rank 0. start_session() must have been

@@ -93,6 +93,9 @@ Machine::Machine(const MachineParams& params) : params_(params) {
   if (params_.nodes < 1 || params_.nodes > kMaxNodes)
     throw std::invalid_argument(fmt::format("--nodes must be 1..{}, got {}", kMaxNodes, params_.nodes));
   if (params_.node_memory == 0) throw std::invalid_argument("--node-memory must be > 0");
+  if (!(params_.corun_slowdown >= 1 && params_.corun_slowdown <= kMaxCorunSlowdown))
+    throw std::invalid_argument(
+        fmt::format("the co-running slowdown must be 1..{}, got {}", kMaxCorunSlowdown, params_.corun_slowdown));
   if (params_.max_payload == 0) throw std::invalid_argument("message payload limit must be > 0");
   if (params_.mailbox_capacity == 0) params_.mailbox_capacity = 2 * params_.nodes + 32;
   params_.work_grant = resolved_work_grant(params_);
@@ -256,6 +259,7 @@ RunReport make_run_report(MachineState& state, const MachineParams& params, cons
   report.contention = params.network.contention;
   report.topology = topology_name(params.topology);
   report.clock = compute_clock_name(params.clock);
+  report.corun_slowdown = applied_corun_slowdown(params);
   report.work_requests = work_request_route_name(params.work_request_route);
   report.work_grants = work_grant_name(params.work_grant);
   report.nodes.resize(n);
@@ -466,6 +470,7 @@ nlohmann::json counters_json(const NodeCounters& c, bool every_type) {
                {"idle_wall_s", c.idle_wall_s},
                {"communication_wall_s", c.communication_wall_s}};
   j["full_mailbox_retries"] = c.full_mailbox_retries;
+  j["mail_checks"] = c.mail_checks;
   j["services"] = c.services;
   j["service_wait_s"] = c.service_wait_s;
   j["link_waits"] = c.link_waits;
@@ -483,6 +488,7 @@ nlohmann::json RunReport::to_json(bool per_node) const {
   j["contention"] = contention;
   j["topology"] = topology;
   j["clock"] = clock;
+  j["corun_slowdown"] = corun_slowdown;
   j["work_requests"] = work_requests;
   j["work_grants"] = work_grants;
   j["parallel_time_s"] = parallel_time_s;

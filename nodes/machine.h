@@ -78,6 +78,14 @@ struct MachineParams {
   WorkGrant work_grant = WorkGrant::kAuto;
   /// What advances a node's clock while it computes (node.h, "Virtual time").
   ComputeClock clock = ComputeClock::kCpu;
+  /// Model clock, runs of more than one node: a node's metered work costs
+  /// this many times its one-node price (>= 1). It describes nodes that
+  /// share a host's cores, caches and memory bandwidth (MPI ranks on one
+  /// machine: `raynode bench mpi` measures it as a probe render's time with
+  /// every rank rendering at once over its time alone); 1 for nodes that
+  /// share nothing, as the iPSC/2's. The CPU clock ignores it: it measures
+  /// the emulator's own threads as they share this host.
+  double corun_slowdown = 1;
   /// The unit costs the modes' work meters use under ComputeClock::kModel.
   core::CostModel cost_model = core::default_cost_model();
   /// Null: every participant runs in this process (the emulator). Else this
@@ -90,6 +98,8 @@ struct MachineParams {
 };
 
 inline constexpr std::uint32_t kMaxNodes = 4096;
+/// The largest MachineParams::corun_slowdown accepted.
+inline constexpr double kMaxCorunSlowdown = 100;
 
 /// An exception thrown in a node (or the host), carried out of the run.
 class NodeError : public std::runtime_error {
@@ -122,6 +132,7 @@ struct RunReport {
   bool contention = false;     ///< links contend (NetworkModel::contention)
   std::string topology;
   std::string clock;           ///< "cpu" or "model" (MachineParams::clock)
+  double corun_slowdown = 1;   ///< the factor the model clock applied to the nodes' work (MachineParams::corun_slowdown)
   std::string work_requests;   ///< "ring", "last-grantor" or "off" (MachineParams::work_request_route)
   std::string work_grants;     ///< "item", "nearest" or "half" (MachineParams::work_grant)
   /// The virtual-time scheduler's work (scheduler.h): compute permits
@@ -239,6 +250,14 @@ const char* work_grant_name(WorkGrant g);
 /// The rule a machine with `params` runs: params.work_grant, with kAuto
 /// resolved to kHalf on a transport and kItem in the emulator (the paper's).
 WorkGrant resolved_work_grant(const MachineParams& params);
+
+/// The factor a node's metered work is priced at: corun_slowdown under the
+/// model clock on an emulated machine of more than one node, else 1 (on a
+/// transport's processes the nodes really share their hosts).
+inline double applied_corun_slowdown(const MachineParams& params) {
+  return params.clock == ComputeClock::kModel && params.nodes > 1 && !params.transport ? params.corun_slowdown
+                                                                                       : 1.0;
+}
 
 /// The largest byte size parse_bytes accepts: 2^62 B (4 EiB), far above any
 /// host, so that sizes and their sums stay clear of size_t overflow.

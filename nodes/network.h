@@ -73,6 +73,12 @@ struct NetworkModel {
   /// the start-up, spent on the node's processor before the message leaves
   /// (charged as busy time); the wire's start-up is latency_s besides it.
   double send_overhead_s = 0;
+  /// The message software's time for one look for mail (NodeContext::poll,
+  /// found or not), charged as busy time on machines of more than one
+  /// node, in the emulator only (under a transport the real look is in the
+  /// rank's own time): an MPI rank's probe of its peers and the library's
+  /// progress engine, where the emulator's own look is one atomic load.
+  double poll_s = 0;
   /// A page fault's own work at the faulting node under the model clock,
   /// virtual seconds; < 0: the cost model's (CostFeature::kPageFault).
   double fault_s = -1;

@@ -36,6 +36,7 @@ NodeCounters& NodeCounters::operator+=(const NodeCounters& o) {
   communication_s += o.communication_s;
   overhead_cpu_s += o.overhead_cpu_s;
   full_mailbox_retries += o.full_mailbox_retries;
+  mail_checks += o.mail_checks;
   services += o.services;
   service_wait_s += o.service_wait_s;
   link_waits += o.link_waits;
@@ -58,7 +59,9 @@ NodeContext::NodeContext(MachineState& machine, NodeId id, std::size_t budget, s
       deferred_(&arena_),
       backlog_current_(&arena_),
       ray_taken_(&arena_),
-      model_clock_(machine.params.clock == ComputeClock::kModel) {
+      model_clock_(machine.params.clock == ComputeClock::kModel),
+      work_price_(applied_corun_slowdown(machine.params)),
+      poll_cost_(!transport_ && id_ != kHost && machine.params.nodes > 1 ? machine.params.network.poll_s : 0.0) {
   // A node's count of rays taken per sender, from its arena before any mode
   // sizes its buffers from what is left (return_ray_credit).
   if (transport_ && id_ != kHost) ray_taken_.assign(std::size_t(machine.params.nodes) + 1, 0);
@@ -82,7 +85,7 @@ void NodeContext::sync_compute() {
   if (model_clock_) {
     if (!meter_) return;
     const double work = meter_(meter_state_);
-    const double d = std::max(0.0, work - cpu_mark_);
+    const double d = work_price_ * std::max(0.0, work - cpu_mark_);
     clock_ += d;
     counters_.busy_s += d;
     cpu_mark_ = work;
@@ -466,6 +469,11 @@ void NodeContext::accept(const MessageHeader& header, std::span<const std::byte>
 
 bool NodeContext::poll(Message& out) {
   check_stop();
+  ++counters_.mail_checks;
+  // The described machine's look for mail; added without reading the clock,
+  // which sums what it is charged in any order.
+  clock_ += poll_cost_;
+  counters_.busy_s += poll_cost_;
   // Nothing to take: no clock reading (under the CPU clock each is a
   // system call, ~0.6 µs here, against ~10 µs of work per work item); the
   // look itself, one atomic load, counts as the node's computing, as a

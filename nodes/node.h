@@ -123,6 +123,7 @@ struct NodeCounters {
   double communication_s = 0;  ///< blocked waiting for data
   double overhead_cpu_s = 0;   ///< CPU time in the emulator's messaging code (not in the clock)
   std::uint64_t full_mailbox_retries = 0;  ///< send() attempts that found the destination full
+  std::uint64_t mail_checks = 0;  ///< poll() calls: looks for mail, found or not
   std::uint64_t services = 0;  ///< messages served at interrupt level (serve_interrupt)
   double service_wait_s = 0;   ///< virtual seconds those messages waited for the handler (a busy home node)
   std::uint64_t link_waits = 0;  ///< messages sent that waited for a link held by another (link contention)
@@ -384,6 +385,8 @@ class NodeContext {
   double clock_ = 0;
   double cpu_mark_ = 0;  ///< CPU seconds (kCpu) or metered seconds (kModel) at the last sample
   bool model_clock_ = false;
+  double work_price_ = 1;  ///< kModel: applied_corun_slowdown (machine.h), the factor on metered seconds
+  double poll_cost_ = 0;   ///< busy seconds per poll(): NetworkModel::poll_s where it applies, else 0
   WorkMeter meter_ = nullptr;
   const void* meter_state_ = nullptr;
   double work_done_s_ = -1;

@@ -125,6 +125,37 @@ TEST_CASE("replicated: under the model clock a node's busy time is exactly the m
   }
 }
 
+TEST_CASE("replicated: a co-running slowdown and a look for mail's time are charged on more than one node only") {
+  const testing::BuiltScene b = testing::build_spd("balls", 1);
+  core::RenderParams rp;
+  rp.width = 48;
+  rp.height = 32;
+  const double look = 2e-6;
+  for (std::uint32_t n : {1u, 3u}) {
+    CAPTURE(n);
+    ReplicatedParams p = params(rp, n);
+    p.machine.clock = ComputeClock::kModel;
+    p.machine.corun_slowdown = 1.5;
+    p.machine.network.poll_s = look;
+    const ReplicatedResult r = render_replicated(b.db, b.grid, p);
+    const double factor = n > 1 ? 1.5 : 1.0, per_look = n > 1 ? look : 0.0;
+    CHECK(r.run.corun_slowdown == factor);
+    for (std::size_t i = 0; i < n; ++i) {
+      const double node_model = p.machine.cost_model.seconds(r.tracing[i].rays, r.tracing[i].traversal);
+      const nodes::NodeCounters& c = r.run.nodes[i].counters;
+      CHECK(c.mail_checks > 0);
+      CHECK(c.busy_s == doctest::Approx(factor * node_model + double(c.mail_checks) * per_look).epsilon(1e-9));
+    }
+    CHECK(testing::same_bytes(r.render.color, core::render(b.db, b.grid, rp).color));
+  }
+  // The CPU clock measures the threads themselves: no factor.
+  ReplicatedParams p = params(rp, 2);
+  p.machine.corun_slowdown = 1.5;
+  CHECK(render_replicated(b.db, b.grid, p).run.corun_slowdown == 1.0);
+  p.machine.corun_slowdown = 0.5;
+  CHECK_THROWS_AS(render_replicated(b.db, b.grid, p), std::invalid_argument);
+}
+
 TEST_CASE("submap plan: the host's estimate charges each block its traced pixel's modelled cost") {
   const testing::BuiltScene b = testing::build_spd("teapot", 2);
   core::RenderParams rp;
