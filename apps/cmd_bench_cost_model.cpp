@@ -173,7 +173,68 @@ std::pair<double, double> fit_quality(const core::CostModel& m, std::span<const 
   return {measured > 0 ? model / measured : 0.0, samples.empty() ? 0.0 : std::sqrt(sq / double(samples.size()))};
 }
 
+/// A fit of the unit costs on this host, with the samples it was made on.
+struct HostFit {
+  core::CostModel model;
+  std::vector<core::CostSample> tiles, pager;
+  std::vector<std::pair<std::string, std::vector<core::CostSample>>> per_scene;
+};
+
+/// The fit itself: samples the scenes, then fits the tracer's unit costs
+/// on the tiles and the pager's on the svm tiles.
+HostFit fit_on_host(const CostModelOptions& o) {
+  HostFit f;
+  std::vector<core::CostSample>& tiles = f.tiles;
+  std::vector<core::CostSample>& pager = f.pager;
+  std::vector<std::pair<std::string, std::vector<core::CostSample>>>& per_scene = f.per_scene;
+  for (const std::string& text : o.scenes) {
+    const core::SceneSource src = parse_scene(text);
+    const core::Database db = core::make_database(core::load_scene(src));
+    core::GridParams gp;
+    gp.kind = grid_kind_for(o.grid);
+    const core::Grid grid = core::build_grid(db, gp);
+    if (!o.quiet) fmt::print(stderr, "{}: tiles...\n", text);
+    std::vector<core::CostSample> t = tile_samples(db, grid, o.width, o.height, o.repeat);
+    tiles.insert(tiles.end(), t.begin(), t.end());
+    per_scene.emplace_back(text, std::move(t));
+    if (o.pager) {
+      if (!o.quiet) fmt::print(stderr, "{}: svm tiles...\n", text);
+      const std::vector<core::CostSample> p = pager_samples(db, grid, o.width, o.height, o.repeat);
+      pager.insert(pager.end(), p.begin(), p.end());
+    }
+  }
+  std::array<bool, core::kCostFeatureCount> tracer{}, paging{};
+  for (int k = 0; k < core::kCostFeatureCount; ++k) {
+    const bool is_pager = k >= int(core::CostFeature::kPageAccess);
+    tracer[std::size_t(k)] = !is_pager;
+    // A fault's CPU time in an emulated run is mostly the emulator's
+    // (thread wake-up, cold caches): its cost stays the modelled one.
+    paging[std::size_t(k)] = is_pager && k != int(core::CostFeature::kPageFault);
+  }
+  core::CostModel start;
+  start.unit_s[std::size_t(core::CostFeature::kPageFault)] =
+      core::default_cost_model().unit_s[std::size_t(core::CostFeature::kPageFault)];
+  if (!o.fit.empty()) {
+    start = core::default_cost_model();
+    for (int k = 0; k < core::kCostFeatureCount; ++k) {
+      const bool chosen = std::find(o.fit.begin(), o.fit.end(),
+                                    core::cost_feature_name(core::CostFeature(k))) != o.fit.end();
+      tracer[std::size_t(k)] = tracer[std::size_t(k)] && chosen;
+      paging[std::size_t(k)] = paging[std::size_t(k)] && chosen;
+    }
+  }
+  f.model = core::fit_cost_model(tiles, tracer, start);
+  if (o.pager) f.model = core::fit_cost_model(pager, paging, f.model);
+  return f;
+}
+
 }  // namespace
+
+core::CostModel fit_cost_model_on_host() {
+  CostModelOptions o;
+  o.quiet = true;
+  return fit_on_host(o).model;
+}
 
 void register_bench_cost_model_command(CLI::App& app) {
   CLI::App* bench = app.get_subcommand("bench");
@@ -198,46 +259,11 @@ void register_bench_cost_model_command(CLI::App& app) {
       ->delimiter(',');
   c->add_flag("--quiet,-q", o->quiet, "No progress lines on stderr");
   c->callback([o] {
-    std::vector<core::CostSample> tiles, pager;
-    std::vector<std::pair<std::string, std::vector<core::CostSample>>> per_scene;
-    for (const std::string& text : o->scenes) {
-      const core::SceneSource src = parse_scene(text);
-      const core::Database db = core::make_database(core::load_scene(src));
-      core::GridParams gp;
-      gp.kind = grid_kind_for(o->grid);
-      const core::Grid grid = core::build_grid(db, gp);
-      if (!o->quiet) fmt::print(stderr, "{}: tiles...\n", text);
-      std::vector<core::CostSample> t = tile_samples(db, grid, o->width, o->height, o->repeat);
-      tiles.insert(tiles.end(), t.begin(), t.end());
-      per_scene.emplace_back(text, std::move(t));
-      if (o->pager) {
-        if (!o->quiet) fmt::print(stderr, "{}: svm tiles...\n", text);
-        const std::vector<core::CostSample> p = pager_samples(db, grid, o->width, o->height, o->repeat);
-        pager.insert(pager.end(), p.begin(), p.end());
-      }
-    }
-    std::array<bool, core::kCostFeatureCount> tracer{}, paging{};
-    for (int k = 0; k < core::kCostFeatureCount; ++k) {
-      const bool is_pager = k >= int(core::CostFeature::kPageAccess);
-      tracer[std::size_t(k)] = !is_pager;
-      // A fault's CPU time in an emulated run is mostly the emulator's
-      // (thread wake-up, cold caches): its cost stays the modelled one.
-      paging[std::size_t(k)] = is_pager && k != int(core::CostFeature::kPageFault);
-    }
-    core::CostModel start;
-    start.unit_s[std::size_t(core::CostFeature::kPageFault)] =
-        core::default_cost_model().unit_s[std::size_t(core::CostFeature::kPageFault)];
-    if (!o->fit.empty()) {
-      start = core::default_cost_model();
-      for (int k = 0; k < core::kCostFeatureCount; ++k) {
-        const bool chosen = std::find(o->fit.begin(), o->fit.end(),
-                                      core::cost_feature_name(core::CostFeature(k))) != o->fit.end();
-        tracer[std::size_t(k)] = tracer[std::size_t(k)] && chosen;
-        paging[std::size_t(k)] = paging[std::size_t(k)] && chosen;
-      }
-    }
-    core::CostModel m = core::fit_cost_model(tiles, tracer, start);
-    if (o->pager) m = core::fit_cost_model(pager, paging, m);
+    const HostFit f = fit_on_host(*o);
+    const core::CostModel& m = f.model;
+    const std::vector<core::CostSample>& pager = f.pager;
+    const auto& per_scene = f.per_scene;
+    const std::vector<core::CostSample>& tiles = f.tiles;
 
     fmt::print("unit costs (ns), fitted on {} tiles{}:\n", tiles.size(),
                o->pager ? fmt::format(" and {} svm tiles", pager.size()) : "");

@@ -131,6 +131,14 @@ Probe measure_probe(const BenchMpiOptions& o, nodes::Transport& transport) {
   return p;
 }
 
+/// The unit costs by name, seconds (a machine description's "cost_model").
+nlohmann::json cost_model_json(const core::CostModel& m) {
+  nlohmann::json j = nlohmann::json::object();
+  for (int k = 0; k < core::kCostFeatureCount; ++k)
+    j[core::cost_feature_name(core::CostFeature(k))] = m.unit_s[std::size_t(k)];
+  return j;
+}
+
 void run_bench_mpi(const BenchMpiOptions& o) {
   const std::unique_ptr<nodes::Transport> transport = make_transport("mpi");
   if (transport->processes() < 2)
@@ -155,6 +163,13 @@ void run_bench_mpi(const BenchMpiOptions& o) {
     rows.push_back({bytes, raw, via});
   }
   const Probe probe = measure_probe(o, *transport);
+  // The model clock's unit costs on this host, fitted on rank 0 while the others sleep.
+  core::CostModel cost_model;
+  (void)mpi_phase_figures({[&] {
+                            if (writer) cost_model = fit_cost_model_on_host();
+                            return 0.0;
+                          }},
+                          1);
   // The emulator takes a slowdown of at least 1: a measured one below is the host's noise.
   const double slowdown = std::max(1.0, probe.corun_slowdown);
   if (!writer) return;
@@ -215,12 +230,14 @@ void run_bench_mpi(const BenchMpiOptions& o) {
         {"about", fmt::format("This host's MPI transport as `raynode bench mpi` measured it ({} ranks, {} round trips "
                               "per size): a message's one-way time through the transport, latency at {} B plus the "
                               "slope to {} B; a node's co-running slowdown and its time per look for mail, from {} at "
-                              "{}x{} on {} ranks (median of {} rounds); seconds of this host, whose tracing speed "
-                              "seconds_per_ray gives. CPU clock, as the MPI runs measure wall time.",
+                              "{}x{} on {} ranks (median of {} rounds); the model clock's unit costs as `raynode bench "
+                              "cost-model` fits them here; seconds of this host, whose tracing speed seconds_per_ray "
+                              "gives. CPU clock, as the MPI runs measure wall time.",
                               transport->processes(), o.repeats, small.bytes, large.bytes, o.probe, o.probe_size,
                               o.probe_size, transport->processes(), o.probe_rounds)},
         {"clock", "cpu"},
         {"corun_slowdown", slowdown},
+        {"cost_model", cost_model_json(cost_model)},
         {"network",
          {{"latency_s", latency},
           {"per_byte_s", per_byte},

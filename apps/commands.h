@@ -15,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/cost_model.h"
 #include "core/grid.h"
 #include "core/scene_source.h"
 
@@ -158,5 +159,9 @@ void register_bench_mpi_command(CLI::App& app);
 void register_bench_quality_command(CLI::App& app);
 /// bench cost-model (after register_bench_command; apps/cmd_bench_cost_model.cpp).
 void register_bench_cost_model_command(CLI::App& app);
+/// The model clock's unit costs fitted on this host as `raynode bench
+/// cost-model` fits them with its defaults (its six scenes, 128x128, 3
+/// passes a tile, the pager's costs too), quietly: about two seconds.
+core::CostModel fit_cost_model_on_host();
 
 }  // namespace raynode::apps

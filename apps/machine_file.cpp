@@ -57,12 +57,13 @@ MachineDescription load_machine(const std::string& name) {
     }
     throw bad(key, fmt::format("must be one of {}, got '{}'", names, s));
   };
-  static const std::set<std::string> known{"name",     "about", "node_memory",    "page_size",
-                                           "topology", "clock", "corun_slowdown", "network"};
+  static const std::set<std::string> known{"name",  "about",          "node_memory", "page_size", "topology",
+                                           "clock", "corun_slowdown", "cost_model",  "network"};
   for (const auto& [key, value] : j.items())
     if (!known.count(key))
       throw bad(key,
-                "is not a machine key (name, about, node_memory, page_size, topology, clock, corun_slowdown, network)");
+                "is not a machine key (name, about, node_memory, page_size, topology, clock, corun_slowdown, "
+                "cost_model, network)");
   MachineDescription m;
   m.name = j.contains("name") ? text_of("name", {}) : name;
   if (j.contains("about")) text_of("about", {});
@@ -74,6 +75,25 @@ MachineDescription load_machine(const std::string& name) {
     if (!v.is_number() || !(v.get<double>() >= 1 && v.get<double>() <= nodes::kMaxCorunSlowdown))
       throw bad("corun_slowdown", fmt::format("must be a number from 1 to {}", nodes::kMaxCorunSlowdown));
     m.corun_slowdown = v.get<double>();
+  }
+  if (j.contains("cost_model")) {
+    const nlohmann::json& v = j.at("cost_model");
+    if (!v.is_object()) throw bad("cost_model", "must be an object of unit costs by name");
+    core::CostModel model = core::default_cost_model();
+    for (const auto& [key, value] : v.items()) {
+      int k = 0;
+      while (k < core::kCostFeatureCount && key != core::cost_feature_name(core::CostFeature(k))) ++k;
+      if (k == core::kCostFeatureCount) {
+        std::string names;
+        for (int i = 0; i < core::kCostFeatureCount; ++i)
+          names += (i ? ", " : "") + std::string(core::cost_feature_name(core::CostFeature(i)));
+        throw bad("cost_model." + key, "is not a unit cost (" + names + ")");
+      }
+      if (!value.is_number() || !std::isfinite(value.get<double>()) || value.get<double>() < 0)
+        throw bad("cost_model." + key, "must be a finite number of seconds >= 0");
+      model.unit_s[std::size_t(k)] = value.get<double>();
+    }
+    m.cost_model = model;
   }
   if (j.contains("page_size")) {
     const nlohmann::json& v = j.at("page_size");

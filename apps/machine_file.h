@@ -11,6 +11,9 @@
 //    "corun_slowdown": x,                       (>= 1: under the model clock, the factor on
 //                                                a node's work when more than one node runs;
 //                                                nodes sharing a host's cores and memory)
+//    "cost_model": {"primary_ray": s, ...},    (the model clock's unit costs by name,
+//                                                seconds; those not given keep the
+//                                                built-in model's: core/cost_model.h)
 //    "network": "none|ipsc2|cluster"            (a preset, or its figures:)
 //             | {"latency_s": s, "per_byte_s": s, "per_hop_s": s,
 //                "service_s": s, "fault_s": s,  (fault_s optional)
@@ -28,6 +31,8 @@
 #include <optional>
 #include <string>
 
+#include "core/cost_model.h"
+
 namespace raynode::apps {
 
 /// A network described by its figures (nodes::NetworkModel's, before scaling).
@@ -44,6 +49,7 @@ struct MachineDescription {
   std::optional<std::string> node_memory, topology, clock;
   std::optional<std::uint32_t> page_size;
   std::optional<double> corun_slowdown;       ///< nodes::MachineParams::corun_slowdown
+  std::optional<core::CostModel> cost_model;  ///< nodes::MachineParams::cost_model
   std::optional<std::string> network;          ///< a preset name
   std::optional<NetworkFigures> network_figures;  ///< or its figures
 };

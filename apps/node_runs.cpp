@@ -38,6 +38,7 @@ void add_node_run_options(CLI::App& c, NodeRunOptions& o, NodeRunOptionSet set) 
          if (m.topology) o.topology = *m.topology;
          if (m.clock) o.clock = *m.clock;
          if (m.corun_slowdown) o.corun_slowdown = *m.corun_slowdown;
+         if (m.cost_model) o.cost_model = *m.cost_model;
          if (m.network) o.network = *m.network;
          if (m.network_figures) o.network = "custom", o.network_figures = *m.network_figures;
        },
@@ -220,6 +221,7 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
     throw UsageError(std::string("--topology/--clock/--work-requests/--work-grants/--submaps: ") + e.what());
   }
   m.corun_slowdown = o.corun_slowdown;
+  if (o.cost_model) m.cost_model = *o.cost_model;
   m.timeout_s = o.timeout_s;
   m.stall_timeout_s = o.stall_timeout_s;
   m.schedule_window_s = o.schedule_window_us * 1e-6;

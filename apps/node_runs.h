@@ -82,6 +82,7 @@ struct NodeRunOptions {
   std::string mail_wakeups = "auto";   ///< --mail-wakeups: auto, scheduled or immediate
   std::string clock = "cpu";            ///< cpu or model (nodes::ComputeClock)
   double corun_slowdown = 1;            ///< model clock, > 1 node: factor on a node's work (nodes::MachineParams)
+  std::optional<core::CostModel> cost_model;  ///< a machine description's unit costs; else the built-in model
   std::string shadow_rays = "facing";   ///< facing or all (core::ShadowRays)
   std::string calibrate = "auto";       ///< model clock: auto, on or off (calibrate_model_clock)
   std::string work_requests = "ring";   ///< ring, last-grantor or off (nodes::WorkRequestRoute)

@@ -442,7 +442,7 @@ def section_mpi(src):
     def spread(rows, key):
         return max(float(r[key]) for r in rows) - min(float(r[key]) for r in rows)
 
-    probe_row = next(r for r in epyc if r["clock"] == "model-probe")
+    probe_row = next(r for r in epyc if r["clock"] == "model-host")
     probe = {"corun_slowdown": float(probe_row["corun_slowdown"]), "poll_us": float(probe_row["poll_us"])}
     header = ["scene", "mode", "emulator clock", "T_1 / T_2 wall (s)", "speedup", "efficiency measured",
               "predicted", "error (points)"]
@@ -485,13 +485,14 @@ def section_mpi(src):
         f"{worst(epyc, 'model'):.1f} points, {sides(epyc, 'model')}, and the CPU clock within "
         f"{worst(epyc, 'cpu'):.1f}, {sides(epyc, 'cpu')}: the model clock prices a node's work as one node "
         "alone does it, and the CPU clock sees the emulator's own threads share the host, not the ranks.",
-        "- What a node's work costs on ranks: the description's probe (`bench mpi`: teapot:8 at 256x256, "
-        "replicated, one node on each rank in turn, then on both at once, then one node per rank over MPI) "
-        f"measures a co-running slowdown of {probe['corun_slowdown']:.3f} and {probe['poll_us']:.2f} us per look "
-        "for mail (a node looks once per work item: the transport's probe of the other ranks and MPI's progress "
-        "engine, where the emulator's own look is one atomic load). With both charged (`model-probe`), the "
-        f"model clock predicts the efficiency within {worst(epyc, 'model-probe'):.1f} points, "
-        f"{sides(epyc, 'model-probe')}; Rings4 is predicted from the probe's figures alone.",
+        "- `model-host`: the model clock with the whole description `bench mpi` writes, every figure measured on "
+        "this host: its unit costs (`bench cost-model`'s fit), and what a node's work costs on ranks, from a "
+        "probe (teapot:8 at 256x256, replicated: one node on each rank in turn, then on both at once, then one "
+        f"node per rank over MPI), a co-running slowdown of {probe['corun_slowdown']:.3f} and "
+        f"{probe['poll_us']:.2f} us per look for mail (a node looks once per work item: the transport's probe of "
+        "the other ranks and MPI's progress engine, where the emulator's own look is one atomic load). It "
+        f"predicts the efficiency within {worst(epyc, 'model-host'):.1f} points, {sides(epyc, 'model-host')}; "
+        "Rings4 is predicted from the machine's figures alone.",
         "",
         "The probe on other scenes and sizes: " + src.describe("mpi-probe-2ranks.csv"),
         "",

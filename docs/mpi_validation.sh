@@ -10,13 +10,14 @@
 #                transport's latency and per-byte time only;
 #   model        the model clock (the work's cost model: deterministic),
 #                the same figures;
-#   model-probe  the model clock with the whole description: bench mpi's
-#                probe (teapot:8 at 256x256, replicated) also measures what
-#                a node's work costs on ranks that share this machine, the
-#                co-running slowdown and the time of a look for mail, and
-#                the emulator charges both (corun_slowdown, network poll_s).
-#                The probe's scene is fixed: for any other scene the
-#                prediction comes from the machine's figures alone.
+#   model-host   the model clock with the whole description, all of it
+#                measured on this host by bench mpi: also this host's unit
+#                costs (bench cost-model's fit), and what a node's work
+#                costs on ranks that share this machine, from a probe
+#                (teapot:8 at 256x256, replicated): the co-running slowdown
+#                and the time of a look for mail (corun_slowdown, network
+#                poll_s). The probe's scene is fixed: for any other scene
+#                the prediction comes from the machine's figures alone.
 # efficiency = T_1 / (p x T_p).
 #
 # Each of REPEATS rounds runs 1 and p ranks, then the emulator's 1 and p
@@ -54,7 +55,9 @@ for p in $ranks; do
 import json, sys
 m = json.load(open(sys.argv[1]))
 m.pop("corun_slowdown")
+m.pop("cost_model")
 m["network"].pop("poll_s")
+m["network"].pop("seconds_per_ray")
 json.dump(m, open(sys.argv[2], "w"))
 PY
 done
@@ -78,7 +81,7 @@ med = statistics.median
 w1, wp = med(r[0] for r in rows), med(r[1] for r in rows)
 em = med(r[0] / (n * r[1]) for r in rows)
 # (prediction, its T_1 column (T_p the next), the co-running slowdown and look for mail it charges)
-for clock, i, s, q in (("cpu", 2, 1.0, 0.0), ("model", 4, 1.0, 0.0), ("model-probe", 6, corun, poll)):
+for clock, i, s, q in (("cpu", 2, 1.0, 0.0), ("model", 4, 1.0, 0.0), ("model-host", 6, corun, poll)):
     p1, pp = med(r[i] for r in rows), med(r[i + 1] for r in rows)
     ep = med(r[i] / (n * r[i + 1]) for r in rows)
     print(f'"{scene}",{mode},{width},{lat * 1e6:.2f},{pb * 1e9:.3f},{n},{len(rows)},{w1:.4f},{wp:.4f},'

@@ -81,8 +81,8 @@ struct MachineParams {
   /// Model clock, runs of more than one node: a node's metered work costs
   /// this many times its one-node price (>= 1). It describes nodes that
   /// share a host's cores, caches and memory bandwidth (MPI ranks on one
-  /// machine: `raynode bench mpi` measures it as a probe render's time with
-  /// every rank rendering at once over its time alone); 1 for nodes that
+  /// machine: `raynode bench mpi` measures it as a probe node's busy time
+  /// beside the other ranks' nodes over its time alone); 1 for nodes that
   /// share nothing, as the iPSC/2's. The CPU clock ignores it: it measures
   /// the emulator's own threads as they share this host.
   double corun_slowdown = 1;
@@ -132,7 +132,7 @@ struct RunReport {
   bool contention = false;     ///< links contend (NetworkModel::contention)
   std::string topology;
   std::string clock;           ///< "cpu" or "model" (MachineParams::clock)
-  double corun_slowdown = 1;   ///< the factor the model clock applied to the nodes' work (MachineParams::corun_slowdown)
+  double corun_slowdown = 1;   ///< the factor the model clock applied to the nodes' work (applied_corun_slowdown)
   std::string work_requests;   ///< "ring", "last-grantor" or "off" (MachineParams::work_request_route)
   std::string work_grants;     ///< "item", "nearest" or "half" (MachineParams::work_grant)
   /// The virtual-time scheduler's work (scheduler.h): compute permits

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # `raynode bench mpi` under mpirun -np 2 (label `mpi`): the machine
 # description it writes holds the transport's latency and per-byte time, the
-# probe's co-running slowdown (>= 1) and time per look for mail (>= 0) and
-# this host's seconds per ray; the JSON holds every probe round; and a
+# probe's co-running slowdown (>= 1) and time per look for mail (>= 0), this
+# host's seconds per ray and every unit cost of the model clock fitted
+# here; the JSON holds every probe round; and a
 # render with that description charges them under the model clock: its
 # nodes' busy time is that of the same render without them, times the
 # slowdown, plus a look's time per look for mail.
@@ -27,6 +28,8 @@ p = b["probe"]
 assert p["rounds"] == 3 and len(p["round_slowdowns"]) == 3 and len(p["round_poll_s"]) == 3, p
 assert p["alone_s"] > 0 and p["shared_s"] > 0 and p["transport_s"] > 0 and p["mail_checks"] > 0, p
 assert m["corun_slowdown"] == max(1.0, p["corun_slowdown"]) and n["poll_s"] == p["poll_s"], (m, p)
+c = m["cost_model"]  # this host's unit costs, every one named
+assert len(c) == 13 and all(v >= 0 for v in c.values()) and c["primary_ray"] > 0 and c["triangle_test"] > 0, c
 # A description with figures large enough to see, for the render below.
 m["corun_slowdown"] = 1.5
 n["poll_s"] = 1e-4
