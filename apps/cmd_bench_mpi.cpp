@@ -1,11 +1,11 @@
 // `raynode bench mpi`: MPI's latency and bandwidth on this machine, raw and
-// through the MPI transport as the nodes see it, what a node's work costs
-// on ranks that share this machine (a probe: the co-running slowdown and the
-// time of a look for mail), and a machine description (--machine) with
-// these figures, so that the emulator can
-// predict what the MPI runs measure. Run under `mpirun -np N` as the runs it
-// predicts (the latency is measured between ranks 0 and 1; the others
-// wait); only rank 0 prints and writes.
+// through the MPI transport as the nodes see it; what a node's work costs
+// on ranks that share this machine (a probe: the co-running slowdown and
+// the time of a look for mail); the model clock's unit costs fitted here;
+// and a machine description (--machine) with these figures, so that the
+// emulator can predict what the MPI runs measure. Run under `mpirun -np N`
+// as the runs it predicts, one rank per core (the latency is measured
+// between ranks 0 and 1; the others wait); only rank 0 prints and writes.
 #include <fmt/core.h>
 
 #include <algorithm>
@@ -35,10 +35,10 @@ struct BenchMpiOptions {
   int repeats = 2000;
   std::string machine_out;
   std::string json_path;
-  std::string probe = "teapot:8";  ///< the co-running probe's scene
+  std::string probe = "teapot:8";  ///< the probe's scene
   int probe_tessellate = 0;
   int probe_size = 256;            ///< pixels on a side
-  int probe_rounds = 5;            ///< 0: no probe, corun_slowdown 1
+  int probe_rounds = 5;            ///< 0: no probe, corun_slowdown 1 and poll_s 0
 };
 
 /// A message's one-way time through `transport` (half a round trip between
@@ -64,13 +64,6 @@ struct Probe {
   double poll_s = 0;          ///< (transport - corun_slowdown x alone) / mail_checks, >= 0
   std::vector<double> round_slowdowns, round_poll_s;
 };
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 /// The probe: replicated mode's node program on the probe scene (its view
 /// at probe_size pixels, adaptive grid, CPU clock, free network), each
@@ -264,7 +257,9 @@ void register_bench_mpi_command(CLI::App& app) {
       ->capture_default_str();
   c->add_option("--repeats", o->repeats, "Round trips per size")->check(CLI::Range(1, 10000000))->capture_default_str();
   c->add_option("--machine-out", o->machine_out,
-                "Write a machine description (--machine FILE) with the transport's latency and per-byte time");
+                "Write a machine description (--machine FILE) with the transport's latency and per-byte time, the "
+                "probe's co-running slowdown and time per look for mail, and the model clock's unit costs fitted "
+                "on this host");
   c->add_option("--probe", o->probe,
                 "The probe's scene (NFF or mesh file, or SPD name[:size]): rendered by one node on each rank alone, "
                 "then on all ranks at once, then by one node per rank over MPI; gives the machine description's "
@@ -276,8 +271,9 @@ void register_bench_mpi_command(CLI::App& app) {
   c->add_option("--probe-size", o->probe_size, "The probe's image, pixels on a side")
       ->check(CLI::Range(1, 8192))
       ->capture_default_str();
-  c->add_option("--probe-rounds", o->probe_rounds, "Probe rounds (each: every rank alone in turn, then all at once); "
-                                                   "0: no probe, corun_slowdown 1 and poll_s 0")
+  c->add_option("--probe-rounds", o->probe_rounds,
+                "Probe rounds (each: a node on every rank alone in turn, on all ranks at once, then one node per "
+                "rank over MPI); 0: no probe, corun_slowdown 1 and poll_s 0")
       ->check(CLI::Range(0, 1000))
       ->capture_default_str();
   add_json_option(*c, o->json_path, "The table");
