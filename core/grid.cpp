@@ -645,13 +645,18 @@ class AdaptiveBuilder {
       Child& child = children[i];
       const std::uint32_t b = local.cell_start[child.cell], e = local.cell_start[child.cell + 1];
       const std::span<const std::uint32_t> list = std::span(local.cell_primitives).subspan(b, e - b);
-      split_large(cell_box(info, child.cell), list, kLargeShare * double(list.size()), child.small, child.large);
-      bool refine = make_sub_grid(info, child.cell, child.small, child.info);
-      if (!refine && !child.large.empty()) {  // the split did not pay: all in the sub-grid, if that does
-        child.small.assign(list.begin(), list.end());
+      const bool split =
+          split_large(cell_box(info, child.cell), list, kLargeShare * double(list.size()), child.small, child.large);
+      bool refine = make_sub_grid(info, child.cell, split ? std::span<const std::uint32_t>(child.small) : list,
+                                  child.info);
+      bool whole = !split;  // the sub-grid, if any, holds the whole list
+      if (!refine && split) {  // the split did not pay: all in the sub-grid, if that does
+        child.small.clear();
         child.large.clear();
-        refine = make_sub_grid(info, child.cell, child.small, child.info);
+        whole = true;
+        refine = make_sub_grid(info, child.cell, list, child.info);
       }
+      if (refine && whole) child.small.assign(list.begin(), list.end());
       refines[i] = refine;
     };
     if (children.size() > 1 && build_threads() > 1)
@@ -714,14 +719,16 @@ class AdaptiveBuilder {
   }
 
   // Splits `list`, the primitives of box `cell`, into those large in it
-  // (header: kLargeSpan) and the others, when the large ones are at most
-  // `max_large` and the others' box is at most half the cell's on some
-  // axis; else every primitive is small. Both keep list order.
-  void split_large(const Bounds3& cell, std::span<const std::uint32_t> list, double max_large,
+  // (header: kLargeSpan), in `large`, and the others, in `small`, when the
+  // large ones are at most `max_large` and the others' box is at most half
+  // the cell's on some axis: returns true. Else every primitive is small:
+  // returns false and leaves both empty (the caller keeps `list`). Both
+  // keep list order.
+  bool split_large(const Bounds3& cell, std::span<const std::uint32_t> list, double max_large,
                    std::vector<std::uint32_t>& small, std::vector<std::uint32_t>& large) const {
     large.clear();
+    small.clear();
     const Vec3 ce = cell.extent();
-    std::vector<std::uint32_t> others;
     Bounds3 small_box;
     for (const std::uint32_t id : list) {
       const Bounds3& pb = bounds_[id];
@@ -733,8 +740,9 @@ class AdaptiveBuilder {
       }
       if (spanned >= 2) {
         large.push_back(id);
+        if (double(large.size()) > max_large) break;  // too many: no split, whatever the rest
       } else {
-        others.push_back(id);
+        small.push_back(id);
         small_box.extend(pb);
       }
     }
@@ -742,12 +750,12 @@ class AdaptiveBuilder {
     for (int a = 0; a < 3; ++a)
       gains |= double(std::min(small_box.upper[a], cell.upper[a])) - std::max(small_box.lower[a], cell.lower[a]) <=
                0.5 * double(ce[a]);
-    if (large.empty() || others.empty() || double(large.size()) > max_large || !gains) {
+    if (large.empty() || small.empty() || double(large.size()) > max_large || !gains) {
       large.clear();
-      small.assign(list.begin(), list.end());
-    } else {
-      small = std::move(others);
+      small.clear();
+      return false;
     }
+    return true;
   }
 
  private:
@@ -788,7 +796,7 @@ class AdaptiveBuilder {
     for (const std::uint32_t id : list) {
       // The sum only grows: once a partial sum does not pay, the whole
       // will not (the same answer, without the rest of a long list).
-      if (++i % 64 == 0 && !pays(refs)) return false;
+      if (++i % 8 == 0 && !pays(refs)) return false;
       const Primitive& p = db_.primitives[id];
       const Bounds3& pb = bounds_[id];
       double k = 1, clipped[3];
