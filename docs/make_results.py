@@ -945,6 +945,14 @@ def build_row(scene, old, new, built):
             f"{over[0]:.2f}", f"{over[1]:.2f}"]
 
 
+def build_tables(src, build_ir, wall, rows):
+    """The lines naming a build A/B's two measurements (callgrind's instructions in `build_ir`, ab_pair.sh's
+    times in `wall`), then its table of BUILD_HEADERS rows."""
+    return ["Instructions inside `build_grid`, counted by callgrind, once per run: `COLLECT=build "
+            + src.describe(build_ir)[1:], "", "Build wall time: " + src.describe(wall) + AB_PAIR_HOW, "",
+            table(BUILD_HEADERS, rows)]
+
+
 def section_build_and_cones(src):
     wall, build_ir, query_ir = "build-cone-ab-2core.csv", "build-instructions.csv", "cone-instructions.csv"
     built = {scene: (old, new) for scene, old, new in ab_instruction_rows(build_ir)}
@@ -970,12 +978,7 @@ def section_build_and_cones(src):
         "fractions of the unnormalised axis: no square root and one division where there were three. The build "
         "before against this one.",
         "",
-        "Instructions inside `build_grid`, counted by callgrind, once per run: `COLLECT=build "
-        + src.describe(build_ir)[1:],
-        "",
-        "Build wall time: " + src.describe(wall) + AB_PAIR_HOW,
-        "",
-        table(BUILD_HEADERS, build_rows),
+        *build_tables(src, build_ir, wall, build_rows),
         "",
         "Tracing: instructions per ray inside the tracer's queries, counted by callgrind: " + src.describe(query_ir)
         + " The times are `bench accel`'s, from the runs of the build's table:",
@@ -1012,12 +1015,7 @@ def section_early_decisions(src):
         "the same); the split of a cell's large primitives from the rest stops at the first large one past its "
         "budget, and a cell that is not split copies no list. The build before against this one.",
         "",
-        "Instructions inside `build_grid`, counted by callgrind, once per run: `COLLECT=build "
-        + src.describe(build_ir)[1:],
-        "",
-        "Build wall time: " + src.describe(wall) + AB_PAIR_HOW,
-        "",
-        table(BUILD_HEADERS, rows),
+        *build_tables(src, build_ir, wall, rows),
         "",
         "- " + ("The same grids: every scene visits the same cells, makes the same tests and gives the same image. "
                 if same else "Not the same grids on every scene: see the CSV. ")
