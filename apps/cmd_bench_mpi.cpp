@@ -156,10 +156,16 @@ void run_bench_mpi(const BenchMpiOptions& o) {
     rows.push_back({bytes, raw, via});
   }
   const Probe probe = measure_probe(o, *transport);
-  // The model clock's unit costs on this host, fitted on rank 0 while the others sleep.
+  // The model clock's unit costs on this host and its tracing speed (the
+  // figures' scale: they are this host's seconds, and the model clock's are
+  // the cost model's), measured on rank 0 while the others sleep.
   core::CostModel cost_model;
+  double seconds_per_ray = 0;
   (void)mpi_phase_figures({[&] {
-                            if (writer) cost_model = fit_cost_model_on_host();
+                            if (writer) {
+                              cost_model = fit_cost_model_on_host();
+                              seconds_per_ray = nodes::calibrate_seconds_per_ray();
+                            }
                             return 0.0;
                           }},
                           1);
@@ -214,10 +220,6 @@ void run_bench_mpi(const BenchMpiOptions& o) {
                                   .dump(2) +
                               "\n");
   if (!o.machine_out.empty()) {
-    // The figures are this host's seconds: the tracing speed they go with
-    // lets the model clock, whose seconds are the cost model's, scale them
-    // to its own (as the ipsc2 preset is scaled).
-    const double seconds_per_ray = nodes::calibrate_seconds_per_ray();
     const nlohmann::json machine{
         {"name", "mpi-measured"},
         {"about", fmt::format("This host's MPI transport as `raynode bench mpi` measured it ({} ranks, {} round trips "

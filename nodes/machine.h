@@ -251,12 +251,22 @@ const char* work_grant_name(WorkGrant g);
 /// resolved to kHalf on a transport and kItem in the emulator (the paper's).
 WorkGrant resolved_work_grant(const MachineParams& params);
 
+/// Whether the described costs of nodes sharing a machine apply: an emulated
+/// machine of more than one node (a lone node has none beside it; on a
+/// transport's processes the nodes really share their hosts, and their
+/// clocks see it).
+inline bool charges_sharing(const MachineParams& params) { return params.nodes > 1 && !params.transport; }
+
 /// The factor a node's metered work is priced at: corun_slowdown under the
-/// model clock on an emulated machine of more than one node, else 1 (on a
-/// transport's processes the nodes really share their hosts).
+/// model clock where charges_sharing, else 1.
 inline double applied_corun_slowdown(const MachineParams& params) {
-  return params.clock == ComputeClock::kModel && params.nodes > 1 && !params.transport ? params.corun_slowdown
-                                                                                       : 1.0;
+  return params.clock == ComputeClock::kModel && charges_sharing(params) ? params.corun_slowdown : 1.0;
+}
+
+/// The busy seconds a node is charged per look for mail: network.poll_s
+/// where charges_sharing (either clock), else 0.
+inline double applied_poll_s(const MachineParams& params) {
+  return charges_sharing(params) ? params.network.poll_s : 0.0;
 }
 
 /// The largest byte size parse_bytes accepts: 2^62 B (4 EiB), far above any

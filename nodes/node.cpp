@@ -61,7 +61,7 @@ NodeContext::NodeContext(MachineState& machine, NodeId id, std::size_t budget, s
       ray_taken_(&arena_),
       model_clock_(machine.params.clock == ComputeClock::kModel),
       work_price_(applied_corun_slowdown(machine.params)),
-      poll_cost_(!transport_ && id_ != kHost && machine.params.nodes > 1 ? machine.params.network.poll_s : 0.0) {
+      poll_cost_(id_ != kHost ? applied_poll_s(machine.params) : 0.0) {
   // A node's count of rays taken per sender, from its arena before any mode
   // sizes its buffers from what is left (return_ray_credit).
   if (transport_ && id_ != kHost) ray_taken_.assign(std::size_t(machine.params.nodes) + 1, 0);

@@ -386,7 +386,7 @@ class NodeContext {
   double cpu_mark_ = 0;  ///< CPU seconds (kCpu) or metered seconds (kModel) at the last sample
   bool model_clock_ = false;
   double work_price_ = 1;  ///< kModel: applied_corun_slowdown (machine.h), the factor on metered seconds
-  double poll_cost_ = 0;   ///< busy seconds per poll(): NetworkModel::poll_s where it applies, else 0
+  double poll_cost_ = 0;   ///< busy seconds per poll(): applied_poll_s (machine.h); 0 for the host
   WorkMeter meter_ = nullptr;
   const void* meter_state_ = nullptr;
   double work_done_s_ = -1;
