@@ -880,6 +880,62 @@ Bounds3 split_scene(const AdaptiveBuilder& builder, Bounds3 box, const std::vect
   return box;
 }
 
+// The slab of `ids` (PrimitiveSlab) across the normal of the largest
+// triangle among them; with no triangle, across the axis of their boxes'
+// least extent. Its ends hold every vertex (a triangle's) or box corner
+// (another primitive's), so every point of the primitives by convexity, and
+// are widened by 2^-40 of the points' magnitude for the dot products'
+// rounding.
+PrimitiveSlab primitive_slab(const Database& db, std::span<const std::uint32_t> ids) {
+  PrimitiveSlab slab;
+  slab.normal[2] = 0;
+  double best = -1;
+  Bounds3 box;
+  for (const std::uint32_t id : ids) {
+    const Primitive& p = db.primitives[id];
+    box.extend(p.bounds());
+    if (p.kind != PrimitiveKind::kTriangle) continue;
+    double e1[3], e2[3];
+    for (int a = 0; a < 3; ++a) {
+      e1[a] = double(p.data[3 + a]) - p.data[a];
+      e2[a] = double(p.data[6 + a]) - p.data[a];
+    }
+    const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+    const double area2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+    if (area2 > best && std::isfinite(area2) && area2 > 0) {
+      best = area2;
+      const double len = std::sqrt(area2);
+      for (int a = 0; a < 3; ++a) slab.normal[a] = n[a] / len;
+    }
+  }
+  if (box.empty()) return PrimitiveSlab{};
+  if (best < 0) {
+    const Vec3 e = box.extent();
+    slab.normal[e.x <= e.y && e.x <= e.z ? 0 : e.y <= e.z ? 1 : 2] = 1.0;
+  }
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo, mag = 0;
+  const auto take = [&](double x, double y, double z) {
+    const double s = slab.normal[0] * x + slab.normal[1] * y + slab.normal[2] * z;
+    lo = std::min(lo, s);
+    hi = std::max(hi, s);
+    mag = std::max(mag, std::fabs(x) + std::fabs(y) + std::fabs(z));
+  };
+  for (const std::uint32_t id : ids) {
+    const Primitive& p = db.primitives[id];
+    if (p.kind == PrimitiveKind::kTriangle) {
+      for (int v = 0; v < 3; ++v) take(p.data[3 * v], p.data[3 * v + 1], p.data[3 * v + 2]);
+    } else {
+      const Bounds3 b = p.bounds();
+      for (int c = 0; c < 8; ++c)
+        take((c & 1) ? b.upper.x : b.lower.x, (c & 2) ? b.upper.y : b.lower.y, (c & 4) ? b.upper.z : b.lower.z);
+    }
+  }
+  if (!std::isfinite(lo) || !std::isfinite(hi)) return PrimitiveSlab{};  // overflow: the whole space
+  slab.lo = lo - 0x1p-40 * mag;
+  slab.hi = hi + 0x1p-40 * mag;
+  return slab;
+}
+
 Grid build_adaptive_grid(const Database& db, const GridParams& params) {
   Grid grid;
   TopGridInfo top;
@@ -899,6 +955,7 @@ Grid build_adaptive_grid(const Database& db, const GridParams& params) {
                                params.max_resolution, top.res);
   }
   set_cell_size(top);
+  if (!large.empty()) top.large_slab = primitive_slab(db, large);
   // The frame: the top grid's own box when it is the objects' box (the
   // large primitives split off, as frame_magnitude does), else computed.
   top.frame_magnitude = params.frame_magnitude > 0 ? params.frame_magnitude

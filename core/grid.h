@@ -51,8 +51,9 @@
 // split the same way before the top grid is built: at most kMaxTopLarge
 // primitives large in the scene's box (a floor, the walls of a room),
 // when the others' box is at most half the scene's on some axis, are
-// listed in one leaf beside the top grid, which every ray tests first, and
-// the top grid covers only the others' padded box (pad_box); the split is
+// listed in one leaf beside the top grid, which a ray tests first unless it
+// cannot reach their slab (TopGridInfo::large_slab: a ray leaving a floor or
+// rising above it), and the top grid covers only the others' padded box (pad_box); the split is
 // repeated in that box while it finds large primitives and the leaf stays
 // within kMaxTopLarge (nested scales: an object on its own ground on a
 // stadium floor). So a mesh on a stadium floor or in a room gets the top
@@ -105,7 +106,9 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <vector>
 
@@ -225,6 +228,33 @@ struct GridInfo {
   Bounds3 cell_bounds(int x, int y, int z) const;
 };
 
+/// A slab lo <= normal . p <= hi (unit normal, world units, in double)
+/// that holds every point of some primitives: the scene's large primitives
+/// beside the adaptive grid's top grid (TopGridInfo::large_slab), with the
+/// normal of the largest of them, so that a floor's slab is the floor's
+/// plane. By default the whole space, which every ray meets.
+struct PrimitiveSlab {
+  double normal[3] = {0, 0, 1};
+  double lo = -std::numeric_limits<double>::infinity();
+  double hi = std::numeric_limits<double>::infinity();
+
+  /// False when `ray` cannot meet the slab for t >= 0: its origin lies
+  /// outside it (beyond 2^-40 of the origin's magnitude, far above the
+  /// rounding of the dot products in double) and it does not move toward
+  /// it (a ray parallel to the slab stays outside). Exact geometry: a
+  /// primitive in the slab can be hit only where this is true.
+  bool may_meet(const Ray& ray) const {
+    const double ox = ray.origin.x, oy = ray.origin.y, oz = ray.origin.z;
+    const double s = normal[0] * ox + normal[1] * oy + normal[2] * oz;
+    const double tol = 0x1p-40 * (std::fabs(ox) + std::fabs(oy) + std::fabs(oz));
+    const double ds = normal[0] * double(ray.direction.x) + normal[1] * double(ray.direction.y) +
+                      normal[2] * double(ray.direction.z);
+    if (s > hi + tol) return ds < 0.0;
+    if (s < lo - tol) return ds > 0.0;
+    return true;
+  }
+};
+
 /// The top grid's GridInfo, with the tracing frame: a ray whose origin lies
 /// outside the cube [-frame_magnitude, frame_magnitude]^3 is tested from
 /// where its line enters that cube (traverse.h, framed_ray), so that its
@@ -233,6 +263,11 @@ struct GridInfo {
 /// replicates; a sub-grid's record is a plain GridInfo.
 struct TopGridInfo : GridInfo {
   float frame_magnitude = 0;  ///< world units; 0: every ray as it is
+  /// Adaptive: a slab holding the scene's large primitives beside the top
+  /// grid (SubGridTables::top_large_leaf), which a ray tests only when it
+  /// may meet the slab (a floor is not tested by the rays that leave it or
+  /// rise above it); the whole space when there are none.
+  PrimitiveSlab large_slab;
 };
 
 /// One grid of an adaptive grid's hierarchy: the top grid (index 0) or the

@@ -654,7 +654,7 @@ inline void walk_cells(const View& view, const Ray& ray, Visit& visit) {
     if (detail::holds_sub_grids(view)) {
       // The scene's large primitives first, as a sub-grid's (walk_sub_grid).
       if (const std::uint32_t large = detail::top_large_leaf(view); large != kNoLeaf) [[unlikely]]
-        if (visit(large, -kInfinity) == kStopWalk) return;
+        if (view.grid_info().large_slab.may_meet(ray) && visit(large, -kInfinity) == kStopWalk) return;
       // The top grid's walk is inlined here, so that its leaves are visited
       // with the caller's hit and counters in registers; only a cell holding
       // a sub-grid (its visit returns kSubGridCode + i) calls out. Its

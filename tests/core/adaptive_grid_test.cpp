@@ -7,6 +7,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -172,6 +173,53 @@ TEST_CASE("adaptive grid: nested scales (a mesh on its own ground on a stadium f
   }
   check_random_rays(b, 7, 3000, Bounds3{{-3, -3, -1.0f}, {3, 3, 3}});
   check_random_rays(b, 8, 1000, Bounds3{{-900, -900, 5.0f}, {900, 900, 50}});
+}
+
+TEST_CASE("adaptive grid: the primitives beside the top grid are tested only by rays that may meet their slab") {
+  // One floor (z = -1.5), then two at different heights (-1.5 and -2).
+  const Built one(mesh_on_floor(11, 600, 300.0f), adaptive());
+  Scene nested = mesh_on_floor(12, 600, 4.0f);
+  const Vec3 stadium[4] = {{-1200, -1200, -2}, {1200, -1200, -2}, {1200, 1200, -2}, {-1200, 1200, -2}};
+  nested.add_polygon(stadium, 4);
+  const Built two(nested, adaptive());
+  for (const Built* b : {&one, &two}) {
+    const PrimitiveSlab& slab = b->grid.info.large_slab;
+    // Across the floor's normal, from its lowest to its highest point, widened by rounding only.
+    CHECK(std::fabs(slab.normal[2]) == 1.0);
+    const double low_z = b == &one ? -1.5 : -2.0, high_z = -1.5;
+    const double lo = slab.normal[2] > 0 ? low_z : -high_z, hi = slab.normal[2] > 0 ? high_z : -low_z;
+    CHECK(slab.lo <= lo);
+    CHECK(slab.lo > lo - 1e-6);
+    CHECK(slab.hi >= hi);
+    CHECK(slab.hi < hi + 1e-6);
+    const auto meets = [&](Vec3 o, Vec3 d) { return slab.may_meet(Ray{o, d, 0.0f, kInfinity}); };
+    CHECK_FALSE(meets({0, 0, 0}, {0, 0, 1}));         // above, rising
+    CHECK_FALSE(meets({5, 1, 0}, {1, 0, 0}));         // above, level
+    CHECK(meets({0, 0, 0}, {0.3f, 0, -1}));           // above, falling
+    CHECK_FALSE(meets({0, 0, -3}, {0, 0.5f, -1}));    // below, falling
+    CHECK(meets({0, 0, -3}, {0, 0, 1}));              // below, rising
+    CHECK(meets({0, 0, -1.5f}, {0, 0, 1}));           // on the floor: always tested
+    // A ray spawned one float spacing above the floor, rising, cannot meet it.
+    CHECK_FALSE(meets({0, 0, std::nextafter(-1.5f, 0.0f)}, {0, 0, 1}));
+    CHECK(meets({0, 0, std::nextafter(-1.5f, 0.0f)}, {0, 0, -1}));
+  }
+  // A ray rising from above the floor tests nothing: the floor is skipped.
+  const DirectView view = one.view();
+  for (const Vec3 o : {Vec3{0, 0, 10}, Vec3{100, 50, 0.5f}}) {
+    TraversalScratch scratch;
+    Hit hit;
+    CHECK_FALSE(intersect_closest(view, Ray{o, normalize(Vec3{0.1f, 0.2f, 1}), 0.0f, kInfinity}, hit, scratch));
+    CHECK(scratch.stats.triangle_tests == 0);
+    // Falling, it tests the floor's two triangles and hits the floor.
+    TraversalScratch down;
+    REQUIRE(intersect_closest(view, Ray{o, normalize(Vec3{0.1f, 0.2f, -1}), 0.0f, kInfinity}, hit, down));
+    CHECK(down.stats.triangle_tests >= 2);
+  }
+  // Rays from both sides of the floor and in every direction: brute force's
+  // and Embree's hits (origins 0.5 from the floor, as Embree's float t on a
+  // triangle 600 units wide errs by ~1e-5 units).
+  check_random_rays(one, 9, 2000, Bounds3{{-3, -3, -3.0f}, {3, 3, -2.0f}});
+  check_random_rays(one, 10, 2000, Bounds3{{-3, -3, -1.0f}, {3, 3, 3}});
 }
 
 TEST_CASE("adaptive grid: a stadium floor leaves the object's cells as they are, and rays from the far floor or a distant eye agree with brute force") {
