@@ -196,13 +196,36 @@ class Checker {
       // relative barycentric margin of 1e-5. Rays that close to an edge
       // (grazing a silhouette) may go either way in float; the grid is
       // right when its hit distance lies between the two answers.
-      const ReferenceHit strict = reference_closest(view_.database(), ray, kBoundaryMargin);
-      const ReferenceHit lenient = reference_closest(view_.database(), ray, -kBoundaryMargin);
       const double t_grid = hg ? double(g.t) : double(kInfinity);
-      const double t_near = lenient.found ? lenient.t : double(kInfinity);
-      const double t_far = strict.found ? strict.t : double(kInfinity);
       auto slack_at = [&](double t) { return std::isinf(t) ? 0.0 : tol_rel * std::fabs(t) + 1e-6 * diag_; };
-      const bool grid_right = t_grid >= t_near - slack_at(t_near) && t_grid <= t_far + slack_at(t_far);
+      // The grid is right when its hit lies between the referee's strict and
+      // lenient answers for the ray, or for the ray tested as the grid tests
+      // it in its tracing frame (framed_ray: a ray from beyond the frame is
+      // tested from its entry point, rounded to float, which moves its line
+      // by up to half a float spacing of the frame's size; a ray grazing a
+      // small sphere or cone that closely may go either way).
+      const auto within = [&](const ReferenceHit& strict, const ReferenceHit& lenient) {
+        const double t_near = lenient.found ? lenient.t : double(kInfinity);
+        const double t_far = strict.found ? strict.t : double(kInfinity);
+        return t_grid >= t_near - slack_at(t_near) && t_grid <= t_far + slack_at(t_far);
+      };
+      const Database& db = view_.database();
+      bool grid_right = within(reference_closest(db, ray, kBoundaryMargin), reference_closest(db, ray, -kBoundaryMargin));
+      const float frame = view_.grid_info().frame_magnitude;
+      if (!grid_right && !origin_in_frame(frame, ray)) {
+        const auto in_frame = [&](double margin) {
+          Hit h;
+          const bool found = closest_in_frame(frame, ray, h, [&](const Ray& piece, Hit& out) {
+            const ReferenceHit r = reference_closest(db, piece, margin);
+            out = Hit{};
+            out.t = float(r.t);
+            out.primitive = 0;
+            return r.found;
+          });
+          return ReferenceHit{found, found ? double(h.t) : 0.0};
+        };
+        grid_right = within(in_frame(kBoundaryMargin), in_frame(-kBoundaryMargin));
+      }
       if (grid_right && !(also_any && intersect_any(view_, ray, scratch_) != hg)) {
         ++c.oracle_errors;
         return g;

@@ -33,7 +33,12 @@
 // rounding of the plane crossing (an origin spawned within rounding
 // distance of a surface: the grid rejects those, as it must; Embree may
 // not); when the grid's hit distance lies between the two
-// referee answers it is counted as an oracle error (Embree's
+// referee answers, for the ray or for the ray tested in pieces in the grid's
+// tracing frame as the grid tests it (closest_in_frame: a ray from beyond
+// the frame is tested from its entry point rounded to float, which moves its
+// line by up to half a float spacing of the frame's size, and a ray grazing
+// a small sphere or cone that closely may go either way), it is counted as
+// an oracle error (Embree's
 // robust mode inflates triangles a little; its float sphere test loses
 // digits on small, distant spheres), not as a mismatch.
 #pragma once
