@@ -717,10 +717,15 @@ inline bool origin_in_frame(float frame, const Ray& ray) { return max_component(
 }
 
 /// The piece of `ray` before the frame entry at parameter s (framed_ray):
-/// up to one float above s, so that it overlaps the framed piece.
+/// up to 2^-20 s past s, as the framed piece starts 2^-20 s before it. A
+/// surface the ray crosses at the entry lies where the framed piece's
+/// origin does, and that piece refuses it as the surface it starts on
+/// (finish_watertight's near-origin rule); this piece, tested from the far
+/// origin, finds it with a float t that may err past s by a few float
+/// spacings, which the overlap holds.
 inline Ray before_frame(const Ray& ray, double s) {
   Ray before = ray;
-  before.tmax = std::min(ray.tmax, std::nextafter(float(s), kInfinity));
+  before.tmax = std::min(ray.tmax, std::nextafter(float(s * (1.0 + 0x1p-20)), kInfinity));
   return before;
 }
 
