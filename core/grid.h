@@ -238,17 +238,21 @@ struct PrimitiveSlab {
   double lo = -std::numeric_limits<double>::infinity();
   double hi = std::numeric_limits<double>::infinity();
 
-  /// False when `ray` cannot meet the slab for t >= 0: its origin lies
-  /// outside it (beyond 2^-40 of the origin's magnitude, far above the
-  /// rounding of the dot products in double) and it does not move toward
-  /// it (a ray parallel to the slab stays outside). Exact geometry: a
-  /// primitive in the slab can be hit only where this is true.
+  /// False when `ray` cannot meet the slab from max(tmin, 0) on, or from
+  /// tmin on for a piece of a ray in the tracing frame (tmin < 0,
+  /// framed_ray): that point lies outside the slab (beyond 2^-40 of the
+  /// coordinates' magnitude, far above the rounding of the dot products in
+  /// double) and the ray does not move toward it (a ray parallel to the
+  /// slab stays outside). Exact geometry: a primitive in the slab can be
+  /// hit only where this is true.
   bool may_meet(const Ray& ray) const {
     const double ox = ray.origin.x, oy = ray.origin.y, oz = ray.origin.z;
-    const double s = normal[0] * ox + normal[1] * oy + normal[2] * oz;
-    const double tol = 0x1p-40 * (std::fabs(ox) + std::fabs(oy) + std::fabs(oz));
-    const double ds = normal[0] * double(ray.direction.x) + normal[1] * double(ray.direction.y) +
-                      normal[2] * double(ray.direction.z);
+    const double dx = ray.direction.x, dy = ray.direction.y, dz = ray.direction.z;
+    const double ds = normal[0] * dx + normal[1] * dy + normal[2] * dz;
+    const double back = ray.tmin < 0.0f ? double(ray.tmin) : 0.0;
+    const double s = normal[0] * ox + normal[1] * oy + normal[2] * oz + back * ds;
+    const double tol = 0x1p-40 * (std::fabs(ox) + std::fabs(oy) + std::fabs(oz) -
+                                  back * (std::fabs(dx) + std::fabs(dy) + std::fabs(dz)));
     if (s > hi + tol) return ds < 0.0;
     if (s < lo - tol) return ds > 0.0;
     return true;

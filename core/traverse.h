@@ -718,11 +718,11 @@ inline bool origin_in_frame(float frame, const Ray& ray) { return max_component(
 
 /// The piece of `ray` before the frame entry at parameter s (framed_ray):
 /// up to 2^-20 s past s, as the framed piece starts 2^-20 s before it. A
-/// surface the ray crosses at the entry lies where the framed piece's
-/// origin does, and that piece refuses it as the surface it starts on
-/// (finish_watertight's near-origin rule); this piece, tested from the far
-/// origin, finds it with a float t that may err past s by a few float
-/// spacings, which the overlap holds.
+/// surface the ray crosses at the entry is found by one piece or the
+/// other: this one, tested from the far origin, with a float t that may err
+/// past s; the framed one, whose origin is a point of the line and not a
+/// surface, refuses no hit near it (WatertightRay, tmin < 0) and takes
+/// the t of one there in double.
 inline Ray before_frame(const Ray& ray, double s) {
   Ray before = ray;
   before.tmax = std::min(ray.tmax, std::nextafter(float(s * (1.0 + 0x1p-20)), kInfinity));

@@ -203,6 +203,11 @@ TEST_CASE("adaptive grid: the primitives beside the top grid are tested only by 
     // A ray spawned one float spacing above the floor, rising, cannot meet it.
     CHECK_FALSE(meets({0, 0, std::nextafter(-1.5f, 0.0f)}, {0, 0, 1}));
     CHECK(meets({0, 0, std::nextafter(-1.5f, 0.0f)}, {0, 0, -1}));
+    // A piece of a ray in the tracing frame (tmin < 0) starts behind its
+    // origin: just past the floor, it still meets it.
+    const float below = float(low_z) - 1e-4f;
+    CHECK_FALSE(slab.may_meet(Ray{{0, 0, below}, {0, 0, -1}, 0.0f, kInfinity}));
+    CHECK(slab.may_meet(Ray{{0, 0, below}, {0, 0, -1}, -0.001f, kInfinity}));
   }
   // A ray rising from above the floor tests nothing: the floor is skipped.
   const DirectView view = one.view();
@@ -238,7 +243,7 @@ TEST_CASE("adaptive grid: a ray from beyond the tracing frame hits a floor that 
   int split = 0;
   for (int i = 0; i < 4000; ++i) {
     const Vec3 o{frame + 20 + 40 * u01(rng), -10 + 20 * u01(rng), 3 + 10 * u01(rng)};
-    const Vec3 target{frame * (1 + 4e-6f * (2 * u01(rng) - 1)), -5 + 10 * u01(rng), -1.5f};
+    const Vec3 target{frame * (1 + 4e-6f * (2 * u01(rng) - 1)), frame * (u01(rng) - 0.5f), -1.5f};
     const Ray ray{o, normalize(target - o), 0.0f, kInfinity};
     Ray framed;
     split += framed_ray(frame, ray, framed) > 0.0;

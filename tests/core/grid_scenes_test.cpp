@@ -37,6 +37,16 @@
 namespace {
 using namespace raynode::core;
 using namespace raynode::testing::grid;
+
+// validate_grid against Embree with `size` x `size` primary rays (0: the
+// default 512 x 512) and `random_rays` random ones.
+ValidateReport validate_square(const Database& db, const Grid& grid, int size, std::size_t random_rays) {
+  const EmbreeScene embree(db);
+  ValidateParams vp;
+  if (size > 0) vp.width = vp.height = size;
+  vp.random_rays = random_rays;
+  return validate_grid(db, grid, embree, vp);
+}
 }  // namespace
 
 // ---------------------------------------------------------------------------
@@ -56,13 +66,7 @@ TEST_CASE("grid: every SPD reference scene agrees with Embree (zero mismatches)"
     CAPTURE(f.filename().string());
     const Scene scene = read_nff(f.string());
     const Database db = make_database(scene);
-    const Grid grid = build_grid(db);
-    const EmbreeScene embree(db);
-    ValidateParams vp;
-    vp.width = 64;
-    vp.height = 64;
-    vp.random_rays = 20000;
-    const ValidateReport rep = validate_grid(db, grid, embree, vp);
+    const ValidateReport rep = validate_square(db, build_grid(db), 64, 20000);
     INFO("mismatching rays:" << mismatch_lines(rep));
     CHECK(rep.total.mismatches() == 0);
     CHECK(rep.primary.grid_hits > 0);
@@ -80,11 +84,7 @@ TEST_CASE("grid: tetra-s9 primary rays agree with Embree, the referee allows for
   RAYNODE_REQUIRE_SCENES(dir);
   const Scene scene = read_nff((dir / "spd" / "tetra-s9.nff.gz").string());
   const Database db = make_database(scene);
-  const Grid grid = build_grid(db);
-  const EmbreeScene embree(db);
-  ValidateParams vp;
-  vp.random_rays = 0;
-  const ValidateReport rep = validate_grid(db, grid, embree, vp);
+  const ValidateReport rep = validate_square(db, build_grid(db), 0, 0);
   INFO("mismatching rays:" << mismatch_lines(rep));
   CHECK(rep.primary.rays == 512u * 512u);
   CHECK(rep.total.mismatches() == 0);
@@ -103,13 +103,7 @@ TEST_CASE("grid: SPD tree 11's rays from beyond the tracing frame agree with Emb
   const Database db = make_database(load_scene(source));
   GridParams gp;
   gp.kind = GridKind::kAdaptive;  // as validate builds it
-  const Grid grid = build_grid(db, gp);
-  const EmbreeScene embree(db);
-  ValidateParams vp;
-  vp.width = 32;
-  vp.height = 32;
-  vp.random_rays = 400000;
-  const ValidateReport rep = validate_grid(db, grid, embree, vp);
+  const ValidateReport rep = validate_square(db, build_grid(db, gp), 32, 400000);
   INFO("mismatching rays:" << mismatch_lines(rep));
   CHECK(rep.total.mismatches() == 0);
   CHECK(rep.random.grid_hits > rep.random.rays / 4);
@@ -127,13 +121,7 @@ TEST_CASE("grid: generated scenes, tessellated and curved, agree with Embree (ze
     const Scene scene = load_scene({c.spec, c.tessellate});
     const Database db = make_database(scene);
     if (c.tessellate > 0) CHECK(db.counts().spheres + db.counts().cones == 0);
-    const Grid grid = build_grid(db);
-    const EmbreeScene embree(db);
-    ValidateParams vp;
-    vp.width = 64;
-    vp.height = 64;
-    vp.random_rays = 20000;
-    const ValidateReport rep = validate_grid(db, grid, embree, vp);
+    const ValidateReport rep = validate_square(db, build_grid(db), 64, 20000);
     INFO("mismatching rays:" << mismatch_lines(rep));
     CHECK(rep.total.mismatches() == 0);
     CHECK(rep.primary.grid_hits > 0);
