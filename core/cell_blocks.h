@@ -173,29 +173,65 @@ inline void block_triangle(const TriangleBlock& b, std::uint32_t l, Vec3& v0, Ve
   v2 = Vec3{b.v[2][0][l], b.v[2][1][l], b.v[2][2][l]};
 }
 
-/// Finishes a candidate lane as intersect_triangle_axes does after its sign
-/// test, on the lane's u, v, e, the largest magnitudes of its sheared x, y
-/// and of its z (mx, my, mz) and its z values (za, zb, zc, before the
-/// scaling): true with `hit` when tmin < t < tmax. Out of line (candidates
-/// are rare): the block loop stays small and keeps its state in registers.
-template <int KX, int KY, int KZ>
-[[gnu::always_inline]] inline bool finish_lane(const Ray& ray, const WatertightRay& w, const TriangleBlock& b, std::uint32_t l,
-                                   float u, float v, float e, float mx, float my, float mz, float za, float zb,
-                                   float zc, float tmax, TriangleHit& hit) {
-  Vec3 v0, v1, v2;
-  block_triangle(b, l, v0, v1, v2);
-  if (u == 0.0f || v == 0.0f || e == 0.0f) [[unlikely]]
-    return intersect_triangle_axes<KX, KY, KZ>(ray, w, v0, v1, v2, tmax, hit);
-  // A grid's lists hold no degenerate triangle (build_grid): no check.
-  return finish_watertight<false>(ray, w, u, v, e, mx, my, mz, w.sz * za, w.sz * zb, w.sz * zc, tmax, v0, v1, v2, hit);
-}
-
 /// Lane by lane, the largest magnitude of three lanes' values (exact).
 [[gnu::always_inline]] inline LaneF max_abs_lanes(const LaneF (&x)[3]) {
   auto mag = [](LaneF a) { return reinterpret_cast<LaneF>(reinterpret_cast<LaneI>(a) & 0x7fffffff); };
   const LaneF a = mag(x[0]), b = mag(x[1]), c = mag(x[2]);
   const LaneF ab = a > b ? a : b;
   return ab > c ? ab : c;
+}
+
+/// std::fabs and std::max lane by lane, for triangle_t_error_of.
+struct LaneOps {
+  static LaneF abs(LaneF a) { return reinterpret_cast<LaneF>(reinterpret_cast<LaneI>(a) & 0x7fffffff); }
+  static LaneF max(LaneF a, LaneF b) { return a < b ? b : a; }
+};
+
+/// finish_watertight's float steps on a block's candidate lanes, eight at
+/// once and in its order of operations (the same t, t error bound and
+/// barycentrics, bit for bit): each lane's t, barycentrics (u = weight of
+/// v1, v = weight of v2) and t error bound, and the lanes the scalar loop
+/// must still look at. These are the candidates (`candidates`) whose answer
+/// the float steps cannot give alone: an edge function exactly 0
+/// (`zero_edge`: the double fallback of intersect_triangle_axes), a t not
+/// clearly above its error bound that lies beyond kNearOrigin of the origin
+/// (`unreliable`: refine_unreliable_t), and a reliable t in (tmin, hit_t].
+/// The others miss whatever the bound: a reliable t outside that interval,
+/// an unreliable one near the origin, det = 0. hit_t only shrinks while the
+/// block's lanes are taken, so the scalar loop checks its exact bound again.
+struct BlockFinish {
+  alignas(32) float t[kBlockLanes], u[kBlockLanes], v[kBlockLanes], t_err[kBlockLanes];
+  std::uint32_t zero_edge = 0, unreliable = 0;
+};
+
+template <int KX, int KY, int KZ>
+[[gnu::always_inline]] inline std::uint32_t finish_block(const BlockLanes& l, std::uint32_t candidates,
+                                                          const Ray& ray, const WatertightRay& w, float hit_t,
+                                                          BlockFinish& f) {
+  const LaneF zero = {};
+  const LaneI zero_edge = (l.u == zero) | (l.v == zero) | (l.e == zero);
+  const LaneF det = l.u + l.v + l.e;
+  const LaneF az = w.sz * l.z[0], bz = w.sz * l.z[1], cz = w.sz * l.z[2];
+  const LaneF t_scaled = l.u * az + l.v * bz + l.e * cz;
+  const LaneF inv_det = 1.0f / det;
+  const LaneF t = t_scaled * inv_det;
+  const LaneF t_err = triangle_t_error_of<LaneF, LaneOps>(t, inv_det, max_abs_lanes(l.x), max_abs_lanes(l.y),
+                                                          max_abs_lanes(l.z), az, bz, cz);
+  const LaneI reliable = t_err < 0.5f * LaneOps::abs(t);
+  const LaneI in_range = (t > ray.tmin) & (t <= hit_t);
+  const LaneI near_origin = t_err * w.max_dir <= w.near_origin;
+  const std::uint32_t zero_bits = lane_bits(zero_edge) & candidates;
+  const std::uint32_t unreliable_bits = lane_bits(~reliable & ~near_origin & (det != zero)) & candidates & ~zero_bits;
+  const std::uint32_t keep = zero_bits | unreliable_bits | (lane_bits(reliable & in_range) & candidates);
+  if (!keep) return 0;
+  const LaneF u = l.v * inv_det, v = l.e * inv_det;
+  std::memcpy(f.t, &t, sizeof f.t);
+  std::memcpy(f.u, &u, sizeof f.u);
+  std::memcpy(f.v, &v, sizeof f.v);
+  std::memcpy(f.t_err, &t_err, sizeof f.t_err);
+  f.zero_edge = zero_bits;
+  f.unreliable = unreliable_bits;
+  return keep;
 }
 
 /// The bound the nearest-hit query tests primitive `id` against, given the
@@ -231,20 +267,26 @@ template <int KX, int KY, int KZ, bool kAny>
     std::uint32_t bits = block_candidates<KX, KY, KZ>(b, o, w, bl);
     if (left < kBlockLanes) bits &= (1u << left) - 1;
     if (!bits) [[likely]] continue;
-    // A candidate (rare): the lanes its finish reads, stored once here
-    // rather than with every block (a lane is read at a run-time index).
-    alignas(32) float f[9][kBlockLanes];
-    const LaneF keep[9] = {bl.u, bl.v, bl.e, max_abs_lanes(bl.x), max_abs_lanes(bl.y), max_abs_lanes(bl.z),
-                           bl.z[0], bl.z[1], bl.z[2]};
-    std::memcpy(f, keep, sizeof f);
+    // Candidates (rare): finished eight at once; the few lanes left are hits
+    // or need a scalar step.
+    BlockFinish f;
+    bits = finish_block<KX, KY, KZ>(bl, bits, ray, w, hit_t, f);
     while (bits) {
       const std::uint32_t l = std::uint32_t(__builtin_ctz(bits));
+      const std::uint32_t lane = bits & -bits;
       bits &= bits - 1;
-      TriangleHit th;
       const float tmax = kAny ? hit_t : tie_bound(hit_t, hit_primitive, b.primitive[l]);
-      if (!finish_lane<KX, KY, KZ>(ray, w, b, l, f[0][l], f[1][l], f[2][l], f[3][l], f[4][l], f[5][l], f[6][l],
-                                   f[7][l], f[8][l], tmax, th))
-        continue;
+      TriangleHit th{f.t[l], f.u[l], f.v[l]};
+      if ((f.zero_edge | f.unreliable) & lane) [[unlikely]] {
+        Vec3 v0, v1, v2;
+        block_triangle(b, l, v0, v1, v2);
+        if (f.zero_edge & lane) {
+          if (!intersect_triangle_axes<KX, KY, KZ>(ray, w, v0, v1, v2, tmax, th)) continue;
+        } else if (!refine_unreliable_t(ray, f.t_err[l], v0, v1, v2, th.t)) {
+          continue;
+        }
+      }
+      if (!(th.t > ray.tmin && th.t < tmax)) continue;
       hit_t = th.t;
       hit_u = th.u;
       hit_v = th.v;

@@ -150,16 +150,32 @@ namespace detail {
 /// functions never have opposite signs here (the sign test came first), so
 /// |u| + |v| + |e| = |det| up to det's two roundings: |inv_det| stands for
 /// sum |e_i| / |det| with a factor 1 + 2^-21 for those.
-[[gnu::always_inline]] inline float triangle_t_error(float t, float inv_det, float max_xt, float max_yt,
-                                                     float max_zr, float az, float bz, float cz) {
+/// Generic over the number type F, for which `Ops::abs` and `Ops::max` act
+/// as std::fabs and std::max: floats (triangle_t_error) and a packed cell's
+/// eight lanes (cell_blocks.h), which then round alike.
+template <class F, class Ops>
+[[gnu::always_inline]] inline F triangle_t_error_of(F t, F inv_det, F max_xt, F max_yt, F max_zr, F az, F bz, F cz) {
   constexpr float u1 = 0x1p-24f;
   constexpr float g2 = 2 * u1 / (1 - 2 * u1), g5 = 5 * u1 / (1 - 5 * u1), g7 = 7 * u1 / (1 - 7 * u1);
   constexpr float kSumE = 1 + 0x1p-21f;
-  const float delta_x = g5 * (max_xt + max_zr), delta_y = g5 * (max_yt + max_zr);
-  const float delta_e = 2 * (g2 * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
-  const float spread = std::fabs(az - t) + std::fabs(bz - t) + std::fabs(cz - t);
-  const float max_z = std::max(std::fabs(az), std::max(std::fabs(bz), std::fabs(cz)));
-  return 2 * (delta_e * spread * std::fabs(inv_det) + g7 * kSumE * (max_z + std::fabs(t)));
+  constexpr float kG7SumE = g7 * kSumE;
+  const F delta_x = g5 * (max_xt + max_zr), delta_y = g5 * (max_yt + max_zr);
+  const F delta_e = 2.0f * (g2 * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+  const F spread = Ops::abs(az - t) + Ops::abs(bz - t) + Ops::abs(cz - t);
+  const F max_z = Ops::max(Ops::abs(az), Ops::max(Ops::abs(bz), Ops::abs(cz)));
+  return 2.0f * (delta_e * spread * Ops::abs(inv_det) + kG7SumE * (max_z + Ops::abs(t)));
+}
+
+/// std::fabs and std::max for triangle_t_error_of on floats.
+struct ScalarOps {
+  static float abs(float x) { return std::fabs(x); }
+  static float max(float a, float b) { return std::max(a, b); }
+};
+
+/// triangle_t_error_of on floats.
+[[gnu::always_inline]] inline float triangle_t_error(float t, float inv_det, float max_xt, float max_yt,
+                                                     float max_zr, float az, float bz, float cz) {
+  return triangle_t_error_of<float, ScalarOps>(t, inv_det, max_xt, max_yt, max_zr, az, bz, cz);
 }
 
 /// finish_watertight's answer where the float t is not clearly larger than
