@@ -16,9 +16,10 @@
 // the paper's object lists, tested with the same answers.
 //
 // Same answers: every lane performs intersect_triangle_axes's float
-// operations in its order (no FMA: -ffp-contract=off); a lane whose ray line
-// crosses its triangle finishes in scalar on the same values, and an edge
-// function exactly 0 goes to intersect_triangle_axes itself. Lanes are taken
+// operations in its order (no FMA: -ffp-contract=off); the lanes whose ray
+// line crosses their triangle finish in the block's lanes too, in
+// finish_watertight's order (finish_block), and an edge function exactly 0
+// goes to intersect_triangle_axes itself. Lanes are taken
 // in list order with the running nearest t as the bound (tie_bound), so the
 // hit (t, u, v and primitive, an exact tie to the lowest id) is the one the
 // list walk finds.
@@ -163,7 +164,7 @@ template <int KX, int KY, int KZ>
   const LaneF zero = {};
   const LaneI neg = (u < zero) | (v < zero) | (e < zero);
   const LaneI pos = (u > zero) | (v > zero) | (e > zero);
-  return lane_bits(~(neg & pos));
+  return ~lane_bits(neg & pos) & ((1u << kBlockLanes) - 1);
 }
 
 /// The triangle of lane `l` of `b`.
@@ -181,10 +182,9 @@ inline void block_triangle(const TriangleBlock& b, std::uint32_t l, Vec3& v0, Ve
   return ab > c ? ab : c;
 }
 
-/// std::fabs and std::max lane by lane, for triangle_t_error_of.
+/// std::fabs lane by lane, for triangle_t_error_of.
 struct LaneOps {
   static LaneF abs(LaneF a) { return reinterpret_cast<LaneF>(reinterpret_cast<LaneI>(a) & 0x7fffffff); }
-  static LaneF max(LaneF a, LaneF b) { return a < b ? b : a; }
 };
 
 /// finish_watertight's float steps on a block's candidate lanes, eight at
@@ -216,7 +216,7 @@ template <int KX, int KY, int KZ>
   const LaneF inv_det = 1.0f / det;
   const LaneF t = t_scaled * inv_det;
   const LaneF t_err = triangle_t_error_of<LaneF, LaneOps>(t, inv_det, max_abs_lanes(l.x), max_abs_lanes(l.y),
-                                                          max_abs_lanes(l.z), az, bz, cz);
+                                                          max_abs_lanes(l.z), az, bz, cz, std::fabs(w.sz));
   const LaneI reliable = t_err < 0.5f * LaneOps::abs(t);
   const LaneI in_range = (t > ray.tmin) & (t <= hit_t);
   const LaneI near_origin = t_err * w.max_dir <= w.near_origin;

@@ -150,32 +150,37 @@ namespace detail {
 /// functions never have opposite signs here (the sign test came first), so
 /// |u| + |v| + |e| = |det| up to det's two roundings: |inv_det| stands for
 /// sum |e_i| / |det| with a factor 1 + 2^-21 for those.
-/// Generic over the number type F, for which `Ops::abs` and `Ops::max` act
-/// as std::fabs and std::max: floats (triangle_t_error) and a packed cell's
-/// eight lanes (cell_blocks.h), which then round alike.
+/// Generic over the number type F, for which `Ops::abs` acts as std::fabs:
+/// floats (triangle_t_error) and a packed cell's eight lanes
+/// (cell_blocks.h), which then round alike.
+/// `abs_sz` is |1/d_z|: the largest of |az|, |bz|, |cz| is abs_sz x max_zr
+/// exactly (rounding is monotonic and the same for both signs). The terms
+/// are gathered by hand: delta_e = 2 (g2 + 2 g5) max_xt max_yt + 2 g5
+/// max_zr (max_xt + max_yt), each product taken smallest factor first so
+/// that it overflows no sooner than the bound itself.
 template <class F, class Ops>
-[[gnu::always_inline]] inline F triangle_t_error_of(F t, F inv_det, F max_xt, F max_yt, F max_zr, F az, F bz, F cz) {
+[[gnu::always_inline]] inline F triangle_t_error_of(F t, F inv_det, F max_xt, F max_yt, F max_zr, F az, F bz, F cz,
+                                                    float abs_sz) {
   constexpr float u1 = 0x1p-24f;
   constexpr float g2 = 2 * u1 / (1 - 2 * u1), g5 = 5 * u1 / (1 - 5 * u1), g7 = 7 * u1 / (1 - 7 * u1);
   constexpr float kSumE = 1 + 0x1p-21f;
-  constexpr float kG7SumE = g7 * kSumE;
-  const F delta_x = g5 * (max_xt + max_zr), delta_y = g5 * (max_yt + max_zr);
-  const F delta_e = 2.0f * (g2 * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+  // The whole bound's factor 2 folded in: 2 delta_e, and 2 gamma(7) (1 + 2^-21).
+  constexpr float kXY = 4 * (g2 + 2 * g5), kZ = 4 * g5, kMagnitude = 2 * g7 * kSumE;
+  const F delta_e2 = kXY * max_xt * max_yt + kZ * max_zr * (max_xt + max_yt);
   const F spread = Ops::abs(az - t) + Ops::abs(bz - t) + Ops::abs(cz - t);
-  const F max_z = Ops::max(Ops::abs(az), Ops::max(Ops::abs(bz), Ops::abs(cz)));
-  return 2.0f * (delta_e * spread * Ops::abs(inv_det) + kG7SumE * (max_z + Ops::abs(t)));
+  const F max_z = abs_sz * max_zr;
+  return delta_e2 * spread * Ops::abs(inv_det) + kMagnitude * (max_z + Ops::abs(t));
 }
 
-/// std::fabs and std::max for triangle_t_error_of on floats.
+/// std::fabs for triangle_t_error_of on floats.
 struct ScalarOps {
   static float abs(float x) { return std::fabs(x); }
-  static float max(float a, float b) { return std::max(a, b); }
 };
 
 /// triangle_t_error_of on floats.
 [[gnu::always_inline]] inline float triangle_t_error(float t, float inv_det, float max_xt, float max_yt,
-                                                     float max_zr, float az, float bz, float cz) {
-  return triangle_t_error_of<float, ScalarOps>(t, inv_det, max_xt, max_yt, max_zr, az, bz, cz);
+                                                     float max_zr, float az, float bz, float cz, float abs_sz) {
+  return triangle_t_error_of<float, ScalarOps>(t, inv_det, max_xt, max_yt, max_zr, az, bz, cz, abs_sz);
 }
 
 /// finish_watertight's answer where the float t is not clearly larger than
@@ -228,7 +233,7 @@ template <bool kCheckDegenerate = true>
   const float t_scaled = u * az + v * bz + e * cz;
   const float inv_det = 1.0f / det;
   float t = t_scaled * inv_det;
-  const float t_err = triangle_t_error(t, inv_det, max_xt, max_yt, max_zr, az, bz, cz);
+  const float t_err = triangle_t_error(t, inv_det, max_xt, max_yt, max_zr, az, bz, cz, std::fabs(w.sz));
   if (!(t_err < 0.5f * std::fabs(t))) [[unlikely]] {
     // refine_unreliable_t's first test on the ray's constants, inline: most
     // unreliable candidates are the surface a secondary ray starts on.

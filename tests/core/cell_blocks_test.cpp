@@ -19,6 +19,7 @@
 #include "core/scene.h"
 #include "core/scene_source.h"
 #include "core/scene_transform.h"
+#include "core/spawn.h"
 #include "core/traverse.h"
 #include "grid_test_support.h"
 
@@ -290,5 +291,71 @@ TEST_CASE("cell blocks: sphere blocks stay within four times the blocks of each 
     std::uint64_t longer_or_equal = 0;  // blocks packed in cells at least as long (taken before it)
     for (const auto& [b2, p2] : eligible) longer_or_equal += (p2 && b2 >= blocks) ? b2 : 0;
     CHECK(longer_or_equal + blocks > budget);
+  }
+}
+
+TEST_CASE("cell blocks: rays leaving a surface and rays near a huge triangle finish alike in packed and listed cells") {
+  // The candidates the block finish hands to scalar steps: the surface a ray
+  // starts on (an unreliable t at the origin: refused), and a triangle far
+  // larger than the distance to its hit (an unreliable t beyond it: taken
+  // in double).
+  SUBCASE("rays spawned from a hit never take their own triangle") {
+    const Built b(load_scene({"teapot:6", 0}));
+    const DirectView list = b.view(), packed = b.packed_view();
+    TraversalScratch scratch;
+    Comparison cmp;
+    Rng rng(11);
+    const Bounds3 box = grown(b.db.bounds, 0.3f);
+    std::size_t spawned = 0, self_hits = 0;
+    for (int i = 0; i < 3000; ++i) {
+      const Vec3 o = random_in(rng, box);
+      const Ray ray{o, centre_of(b.db.primitives[rng() % b.db.primitives.size()]) - o, 0.0f, kInfinity};
+      Hit h;
+      if (!intersect_closest(list, ray, h, scratch)) continue;
+      // The tracer's spawn: off the error bound, to the side the ray leaves on.
+      const HitPoint hp = hit_point(b.db.primitives[h.primitive], ray, h);
+      const Vec3 d = random_unit(rng);
+      const Ray leave{offset_ray_origin(hp, dot(d, hp.normal) < 0.0f ? -hp.normal : hp.normal), d, 0.0f, kInfinity};
+      cmp.fire(list, packed, leave, scratch);
+      ++spawned;
+      Hit again;
+      if (intersect_closest(packed, leave, again, scratch)) self_hits += again.primitive == h.primitive;
+    }
+    INFO("first difference: " << cmp.first);
+    CHECK(spawned > 2000);
+    CHECK(self_hits == 0);
+    CHECK(cmp.differ == 0);
+  }
+  SUBCASE("a ground 1e8 across seen from 1e-2 above is hit where its plane is") {
+    Scene s;
+    const float g = 1e8f;
+    add_quad(s, {-g, 0, -g}, {g, 0, -g}, {g, 0, g}, {-g, 0, g});
+    for (int i = 0; i < 20; ++i)
+      for (int k = 0; k < 20; ++k) {
+        const float x = 1e-2f * float(i - 10), z = 1e-2f * float(k - 10), y = 2e-3f + 1e-3f * float((i + k) % 7);
+        add_quad(s, {x, y, z}, {x + 4e-3f, y, z}, {x + 4e-3f, y + 2e-3f, z + 4e-3f}, {x, y + 2e-3f, z + 4e-3f});
+      }
+    const Built b(s);
+    const DirectView list = b.view(), packed = b.packed_view();
+    TraversalScratch scratch;
+    Comparison cmp;
+    Rng rng(12);
+    std::size_t ground = 0, off_plane = 0;
+    for (int i = 0; i < 4000; ++i) {
+      const Vec3 o{uniform(rng, -0.1f, 0.1f), uniform(rng, 1e-3f, 2e-2f), uniform(rng, -0.1f, 0.1f)};
+      Vec3 d = random_unit(rng);
+      d.y = -std::fabs(d.y) - 1e-3f;
+      const Ray ray{o, d, 0.0f, kInfinity};
+      cmp.fire(list, packed, ray, scratch);
+      Hit h;
+      if (!intersect_closest(packed, ray, h, scratch) || h.primitive >= 2) continue;  // the ground's two triangles
+      ++ground;
+      const double exact = -double(o.y) / double(d.y);
+      off_plane += std::fabs(double(h.t) - exact) > 1e-5 * exact;
+    }
+    INFO("first difference: " << cmp.first);
+    CHECK(ground > 1000);
+    CHECK(off_plane == 0);
+    CHECK(cmp.differ == 0);
   }
 }
