@@ -895,12 +895,8 @@ PrimitiveSlab primitive_slab(const Database& db, std::span<const std::uint32_t> 
     const Primitive& p = db.primitives[id];
     box.extend(p.bounds());
     if (p.kind != PrimitiveKind::kTriangle) continue;
-    double e1[3], e2[3];
-    for (int a = 0; a < 3; ++a) {
-      e1[a] = double(p.data[3 + a]) - p.data[a];
-      e2[a] = double(p.data[6 + a]) - p.data[a];
-    }
-    const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+    const TriangleFrameDouble f = triangle_frame_double(p.vertex(0), p.vertex(1), p.vertex(2));
+    const double* const n = f.n;
     const double area2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
     if (area2 > best && std::isfinite(area2) && area2 > 0) {
       best = area2;

@@ -14,14 +14,7 @@ Vec3 geometric_normal(const Primitive& p, const Vec3& x) {
       // In double: the products of float edges are exact there, and neither
       // they nor the squared length overflow (edges of 1e10 and beyond would
       // in float).
-      double e1[3], e2[3];
-      for (int i = 0; i < 3; ++i) {
-        e1[i] = double(p.data[3 + i]) - p.data[i];
-        e2[i] = double(p.data[6 + i]) - p.data[i];
-      }
-      const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
-                           e1[0] * e2[1] - e1[1] * e2[0]};
-      return unit_from_double(n);
+      return unit_from_double(triangle_frame_double(p.vertex(0), p.vertex(1), p.vertex(2)).n);
     }
     case PrimitiveKind::kSphere: {
       const double n[3] = {double(x.x) - p.data[0], double(x.y) - p.data[1], double(x.z) - p.data[2]};

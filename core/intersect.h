@@ -71,6 +71,28 @@ struct TriangleHit {
   float t, u, v;
 };
 
+/// A triangle's edges e1 = v1 - v0, e2 = v2 - v0 and its unnormalised
+/// normal n = e1 x e2, in double: the float differences are exact there,
+/// the products nearly so, and none overflows or underflows for finite
+/// float vertices. The one form of the normal behind the degeneracy test,
+/// the plane's t, geometric normals, the floor's slab and validate's
+/// referee.
+struct TriangleFrameDouble {
+  double e1[3], e2[3], n[3];
+};
+
+inline TriangleFrameDouble triangle_frame_double(const Vec3& v0, const Vec3& v1, const Vec3& v2) {
+  TriangleFrameDouble f;
+  for (int i = 0; i < 3; ++i) {
+    f.e1[i] = double(v1[i]) - v0[i];
+    f.e2[i] = double(v2[i]) - v0[i];
+  }
+  f.n[0] = f.e1[1] * f.e2[2] - f.e1[2] * f.e2[1];
+  f.n[1] = f.e1[2] * f.e2[0] - f.e1[0] * f.e2[2];
+  f.n[2] = f.e1[0] * f.e2[1] - f.e1[1] * f.e2[0];
+  return f;
+}
+
 /// True when the triangle spans (nearly) zero area: |(v1-v0) x (v2-v0)| <=
 /// 1e-7 x (longest edge)^2, in double (is_degenerate_polygon's criterion,
 /// scene.h). The triangles make_database drops (DatabaseParams::
@@ -78,11 +100,11 @@ struct TriangleHit {
 /// ones this rejects; the triangle tests outside the grid's walk call it
 /// for would-be hits (rare path).
 inline bool triangle_is_degenerate(const Vec3& v0, const Vec3& v1, const Vec3& v2) {
-  const double e1[3] = {double(v1.x) - v0.x, double(v1.y) - v0.y, double(v1.z) - v0.z};
-  const double e2[3] = {double(v2.x) - v0.x, double(v2.y) - v0.y, double(v2.z) - v0.z};
+  const TriangleFrameDouble f = triangle_frame_double(v0, v1, v2);
+  const double* const e1 = f.e1;
+  const double* const e2 = f.e2;
+  const double* const n = f.n;
   const double e3[3] = {e2[0] - e1[0], e2[1] - e1[1], e2[2] - e1[2]};
-  const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
-                       e1[0] * e2[1] - e1[1] * e2[0]};
   const double l1 = e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2];
   const double l2 = e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2];
   const double l3 = e3[0] * e3[0] + e3[1] * e3[1] + e3[2] * e3[2];
@@ -112,14 +134,13 @@ inline WatertightRay::WatertightRay(const Ray& ray) : WatertightRay(ray.directio
 /// of spawn.h's ray-based hit point.
 inline bool triangle_plane_t(const Ray& ray, const Vec3& v0, const Vec3& v1, const Vec3& v2, double& t,
                              double& err) {
-  double e1[3], e2[3], q[3], d[3];
+  double q[3], d[3];
   for (int i = 0; i < 3; ++i) {
-    e1[i] = double(v1[i]) - v0[i];
-    e2[i] = double(v2[i]) - v0[i];
     q[i] = double(v0[i]) - ray.origin[i];
     d[i] = ray.direction[i];
   }
-  const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+  const TriangleFrameDouble f = triangle_frame_double(v0, v1, v2);
+  const double* const n = f.n;
   const double nd = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
   if (nd == 0.0 || !std::isfinite(nd)) return false;
   const double nq = n[0] * q[0] + n[1] * q[1] + n[2] * q[2];

@@ -72,9 +72,8 @@ bool reference_triangle(const Ray& ray, const Primitive& p, double tmax, double 
   if (margin != 0) {
     // Float barycentrics lose digits as the ray grazes the plane: scale the
     // margin by 1/|cos| of the ray/normal angle (capped at 1e4x, as for t).
-    const double e1[3] = {double(p.data[3]) - p.data[0], double(p.data[4]) - p.data[1], double(p.data[5]) - p.data[2]};
-    const double e2[3] = {double(p.data[6]) - p.data[0], double(p.data[7]) - p.data[1], double(p.data[8]) - p.data[2]};
-    const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+    const TriangleFrameDouble f = triangle_frame_double(p.vertex(0), p.vertex(1), p.vertex(2));
+    const double* const n = f.n;
     const double nl = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
     const double dl = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     const double c = nl > 0 ? std::fabs(n[0] * d[0] + n[1] * d[1] + n[2] * d[2]) / (nl * dl) : 1.0;
