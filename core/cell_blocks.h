@@ -187,23 +187,26 @@ struct LaneOps {
   static LaneF abs(LaneF a) { return reinterpret_cast<LaneF>(reinterpret_cast<LaneI>(a) & 0x7fffffff); }
 };
 
-/// finish_watertight's float steps on a block's candidate lanes, eight at
-/// once and in its order of operations (the same t, t error bound and
-/// barycentrics, bit for bit): each lane's t, barycentrics (u = weight of
-/// v1, v = weight of v2) and t error bound, and the lanes the scalar loop
-/// must still look at. These are the candidates (`candidates`) whose answer
-/// the float steps cannot give alone: an edge function exactly 0
-/// (`zero_edge`: the double fallback of intersect_triangle_axes), a t not
-/// clearly above its error bound that lies beyond kNearOrigin of the origin
-/// (`unreliable`: refine_unreliable_t), and a reliable t in (tmin, hit_t].
-/// The others miss whatever the bound: a reliable t outside that interval,
-/// an unreliable one near the origin, det = 0. hit_t only shrinks while the
-/// block's lanes are taken, so the scalar loop checks its exact bound again.
+/// finish_block's answers, lane by lane: t, the barycentrics (u = weight of
+/// v1, v = weight of v2) and t's error bound, and which of the lanes it
+/// hands on need the double fallback (zero_edge) or refine_unreliable_t
+/// (unreliable).
 struct BlockFinish {
   alignas(32) float t[kBlockLanes], u[kBlockLanes], v[kBlockLanes], t_err[kBlockLanes];
   std::uint32_t zero_edge = 0, unreliable = 0;
 };
 
+/// finish_watertight's float steps on the candidate lanes of a block
+/// (`candidates`, from block_candidates' values `l`), eight at once and in
+/// its order of operations: the same t, t error bound and barycentrics, bit
+/// for bit, written to `f`. Returns the lanes the scalar loop must still
+/// look at: an edge function exactly 0 (the double fallback of
+/// intersect_triangle_axes), a t not clearly above its error bound that
+/// lies beyond kNearOrigin of the origin (refine_unreliable_t), and a
+/// reliable t in (tmin, hit_t] (a hit once checked against the exact
+/// bound: hit_t only shrinks while the block's lanes are taken). The
+/// others miss whatever happens next: a reliable t outside that interval,
+/// an unreliable one near the origin, det = 0.
 template <int KX, int KY, int KZ>
 [[gnu::always_inline]] inline std::uint32_t finish_block(const BlockLanes& l, std::uint32_t candidates,
                                                           const Ray& ray, const WatertightRay& w, float hit_t,
