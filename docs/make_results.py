@@ -1039,8 +1039,7 @@ def section_floor_slab(src):
         "now skips them: most shadow and mirror rays over a floor, those leaving it and those rising from an "
         "object above it. The test is exact geometry, so the hits and images are the same. The build before "
         "against this one:", name,
-        ["scene", "grid / Embree, before", "grid / Embree, floors skipped", "grid time, new / old",
-         "tests per ray, old / new"], body,
+        ab_test_headers("floors skipped"), body,
         [faster_slower(body, faster, slower) + stadium_summary(body),
          "- The scenes that make as many tests per ray as before (" + ", ".join(same) + ") have no large "
          "primitive beside the top grid, or large primitives that do not lie in one plane: a room's walls "
@@ -1189,6 +1188,13 @@ def ab_test_rows(name):
     return body, [b for b in body if float(b[3]) < 0.97], [b for b in body if float(b[3]) > 1.03]
 
 
+def ab_test_headers(after):
+    """The columns of ab_test_rows' table: grid / Embree before and `after` (what the new build does), the paired
+    time ratio and the tests per ray."""
+    return ["scene", "grid / Embree, before", f"grid / Embree, {after}", "grid time, new / old",
+            "tests per ray, old / new"]
+
+
 def faster_slower(body, faster, slower):
     """The opening of an A/B section's first note: how many of the rows `body` (sorted fastest first, the time
     ratio in column 3) are more than 3% faster and slower."""
@@ -1208,8 +1214,7 @@ def section_cone_weight(src):
         "A cell is offered a sub-grid from a weight of 32 (GridParams::sub_grid_min), where it took 128 "
         "primitives of any kind: packed triangles still need 128, spheres and listed triangles 32, cones 8. "
         "The build before against this one:", name,
-        ["scene", "grid / Embree, before", "grid / Embree, weighed", "grid time, new / old",
-         "tests per ray, old / new"], body,
+        ab_test_headers("weighed"), body,
         [faster_slower(body, faster, slower)
          + f"; geometric mean of grid / Embree {geometric_mean(float(b[1]) for b in body):.2f} before, "
          f"{geometric_mean(float(b[2]) for b in body):.2f} after. The scenes with cones gain (Tree, Rings, "
@@ -1247,8 +1252,7 @@ def section_nested_floors(src):
         "whose box was then the ground's, wide and flat, with the object in a few of its cells. The stadium "
         "scenes are `raynode scene write SPEC --floor K` (a square floor K times the scene's width under it). "
         "The build before against this one:", name,
-        ["scene", "grid / Embree, before", "grid / Embree, nested split", "grid time, new / old",
-         "tests per ray, old / new"], body,
+        ab_test_headers("nested split"), body,
         [faster_slower(body, faster, slower) + stadium_summary(body),
          "- What keeps tessellated Balls on a floor above 2x: the cells' conservative margin grows with the "
          "scene's largest coordinate (core/grid.cpp, magnitude_eps: a ray from the far floor finds its entry "
@@ -1271,8 +1275,7 @@ def section_tracing_frame(src):
         "origin, and on from where its line enters the frame, that point computed in double (core/traverse.h, "
         "framed_ray). Every grid kind, dataflow's region grids and the Embree view's refinement test a ray in the "
         "same frame, so the modes' images stay identical. The build before against this one:", name,
-        ["scene", "grid / Embree, before", "grid / Embree, framed", "grid time, new / old",
-         "tests per ray, old / new"], body,
+        ab_test_headers("framed"), body,
         [faster_slower(body, faster, slower) + stadium_summary(body),
          "- `raynode scene info FILE --grid` on tessellated Balls (balls:3 -t 1) with a floor 1000x its width: "
          "16,988 references, against 29,281 before and 16,986 without the floor; at 100x, 16,988 against 17,892. "
