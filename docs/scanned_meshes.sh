@@ -1,0 +1,104 @@
+#!/bin/bash
+# The grid against Embree on meshes raynode was never tuned on: the meshes
+# of Debian's libcgal-demo package (CGAL's data set: scans such as the
+# Stanford bunny and armadillo, and modelled meshes), alone and as stadium
+# variants, as quoted in docs/results.md ("Meshes from Debian's CGAL data"):
+#
+#   docs/scanned_meshes.sh RAYNODE DIR OUT.csv ROUNDS [MESH...]
+#
+# DIR receives the meshes: if DIR/meshes does not hold them yet, the package
+# is fetched with `apt-get download libcgal-demo` (network needed, no root)
+# and the meshes are taken out of its data.tar.gz. MESH names files of
+# CGAL's data/meshes (default: the list below). For each mesh and floor
+# (none, --floor 100, --floor 1000), ROUNDS alternated rounds of
+# `bench accel MESH [--floor K] --repeat 3 --width 256 --height 256 --json`,
+# then one `validate MESH [--floor K] --json` (its defaults: 512x512 primary
+# rays, 400,000 random rays and their secondaries) and svm renders on 8
+# nodes, `render MESH [--floor K] --mode svm --nodes 8 --grid adaptive
+# --width 128 --height 128 --stats FILE`, for svm's pages per pixel, and the
+# same with --grid uniform for the mesh alone (on a floor the uniform grid
+# takes minutes a render: its few, huge cells). OUT.csv
+# gets a row per mesh, floor and round: the bench figures, then the
+# validate mismatches and the two pages per pixel (the same on every round).
+set -u
+bin=$(realpath "${1:?RAYNODE}"); dir=$(realpath -m "${2:?DIR}"); out=$(realpath -m "${3:?OUT.csv}")
+rounds=${4:?ROUNDS}
+shift 4
+meshes=("$@")
+if [ ${#meshes[@]} -eq 0 ]; then
+  meshes=(bunny00.off armadillo.off ChineseDragon-10kv.off refined_elephant.off femur.off lion.off pig.stl
+          camel.off bear.off man.off homer.off dino.off cow.off diplodocus.off mannequin-devil.off)
+fi
+mkdir -p "$dir/meshes"
+missing=0
+for m in "${meshes[@]}"; do [ -s "$dir/meshes/$m" ] || missing=1; done
+if [ $missing = 1 ]; then
+  (cd "$dir" && rm -f libcgal-demo_*.deb && apt-get download libcgal-demo) || { echo "cannot fetch libcgal-demo"; exit 1; }
+  deb=$(ls "$dir"/libcgal-demo_*.deb | head -1)
+  rm -rf "$dir/pkg" && dpkg-deb -x "$deb" "$dir/pkg"
+  members=()
+  for m in "${meshes[@]}"; do members+=("data/meshes/$m"); done
+  tar xzf "$dir/pkg/usr/share/doc/libcgal-dev/data.tar.gz" -C "$dir" "${members[@]}" || exit 1
+  for m in "${meshes[@]}"; do mv "$dir/data/meshes/$m" "$dir/meshes/$m"; done
+  rm -rf "$dir/pkg" "$dir/data"
+fi
+raw=$(mktemp); tmp=$(mktemp -d); trap 'rm -rf "$raw" "$tmp"' EXIT
+cd "$dir/meshes"
+floors=("" "--floor 100" "--floor 1000")
+for round in $(seq 1 "$rounds"); do
+  for m in "${meshes[@]}"; do
+    for f in "${floors[@]}"; do
+      # $f is split on purpose: a flag and its value.
+      # shellcheck disable=SC2086
+      j=$("$bin" bench accel "$m" $f --repeat 3 --width 256 --height 256 --json 2>/dev/null | tr -d '\n ')
+      echo "bench|$round|$m|${f#--floor }|$j" >> "$raw"
+    done
+  done
+done
+for m in "${meshes[@]}"; do
+  for f in "${floors[@]}"; do
+    # shellcheck disable=SC2086
+    j=$("$bin" validate "$m" $f --json 2>/dev/null | tr -d '\n ')
+    echo "validate|0|$m|${f#--floor }|$j" >> "$raw"
+    grids=(adaptive)
+    [ -z "$f" ] && grids+=(uniform)  # the uniform grid on a floor: minutes a render, as the issue's stadiums
+    for g in "${grids[@]}"; do
+      # shellcheck disable=SC2086
+      "$bin" render "$m" $f --mode svm --nodes 8 --grid $g --width 128 --height 128 -o "$tmp/img.png" \
+        --stats "$tmp/s.json" >/dev/null 2>&1
+      echo "svm_$g|0|$m|${f#--floor }|$(tr -d '\n ' < "$tmp/s.json")" >> "$raw"
+      rm -f "$tmp/s.json"
+    done
+  done
+done
+python3 - "$raw" "$out" <<'PY'
+import csv, json, sys
+bench, extra = [], {}
+for line in open(sys.argv[1]):
+    kind, rnd, mesh, floor, j = line.rstrip("\n").split("|", 4)
+    floor = floor or "0"
+    try:
+        d = json.loads(j)
+    except ValueError:
+        continue  # a run that failed leaves no figure
+    if kind == "bench":
+        bench.append((rnd, mesh, floor, d[0]))
+    elif kind == "validate":
+        extra.setdefault((mesh, floor), {})["mismatches"] = d["mismatches"]
+        extra[(mesh, floor)]["validate_rays"] = d["rays"]
+    else:
+        extra.setdefault((mesh, floor), {})[kind + "_pages_per_pixel"] = f"{d['svm']['pages_per_pixel']:.2f}"
+keys = ["mismatches", "validate_rays", "svm_adaptive_pages_per_pixel", "svm_uniform_pages_per_pixel"]
+with open(sys.argv[2], "w", newline="") as f:
+    w = csv.writer(f)
+    w.writerow(["mesh", "floor", "round", "primitives", "grid_over_embree_time", "grid_rays_per_s",
+                "embree_rays_per_s", "tests_per_ray", "cells_per_ray", "grid_build_s", "embree_build_s",
+                "grid_bytes", "embree_bytes"] + keys)
+    for rnd, mesh, floor, d in bench:
+        e = extra.get((mesh, floor), {})
+        w.writerow([mesh, floor, rnd, d["primitives"], f"{d['grid_over_embree_time']:.4f}",
+                    f"{d['grid_rays_per_s']:.0f}", f"{d['embree_rays_per_s']:.0f}", f"{d['tests_per_ray']:.2f}",
+                    f"{d['cells_per_ray']:.2f}", f"{d['grid_build_s']:.6f}", f"{d['embree_build_s']:.6f}",
+                    d["grid_bytes"], d["embree_bytes"]] + [e.get(k, "") for k in keys])
+PY
+wc -l "$out"
