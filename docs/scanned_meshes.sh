@@ -34,7 +34,7 @@ missing=0
 for m in "${meshes[@]}"; do [ -s "$dir/meshes/$m" ] || missing=1; done
 if [ $missing = 1 ]; then
   (cd "$dir" && rm -f libcgal-demo_*.deb && apt-get download libcgal-demo) || { echo "cannot fetch libcgal-demo"; exit 1; }
-  deb=$(ls "$dir"/libcgal-demo_*.deb | head -1)
+  deb=$(find "$dir" -maxdepth 1 -name "libcgal-demo_*.deb" | head -1)
   rm -rf "$dir/pkg" && dpkg-deb -x "$deb" "$dir/pkg"
   members=()
   for m in "${meshes[@]}"; do members+=("data/meshes/$m"); done
@@ -43,7 +43,7 @@ if [ $missing = 1 ]; then
   rm -rf "$dir/pkg" "$dir/data"
 fi
 raw=$(mktemp); tmp=$(mktemp -d); trap 'rm -rf "$raw" "$tmp"' EXIT
-cd "$dir/meshes"
+cd "$dir/meshes" || exit 1
 floors=("" "--floor 100" "--floor 1000")
 for round in $(seq 1 "$rounds"); do
   for m in "${meshes[@]}"; do
