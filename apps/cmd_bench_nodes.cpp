@@ -150,6 +150,8 @@ nlohmann::json bench_row(std::FILE* report, std::uint32_t n, const NodeRun& best
     row["miss_ratio"] = best.miss_ratio.value_or(-1);
     row["pages_per_pixel"] = best.pages_per_pixel.value_or(-1);
     if (best.database_bytes) row["database_bytes"] = *best.database_bytes;  // svm: the shared memory's size
+    if (best.accesses) row["accesses"] = *best.accesses;
+    if (best.cache_page_accesses) row["cache_page_accesses"] = *best.cache_page_accesses;
   }
   if (ipsc2_scale > 0) row["ipsc2_time_s"] = tp / ipsc2_scale;
   if (balanced) {

@@ -107,8 +107,9 @@ MachineDescription load_machine(const std::string& name) {
       m.network = text_of("network", {"none", "ipsc2", "cluster"});
     } else if (v.is_object()) {
       NetworkFigures f;
-      static const std::set<std::string> figures{"latency_s", "per_byte_s", "per_hop_s", "service_s", "fault_s",
-                                                 "send_overhead_s", "poll_s", "seconds_per_ray"};
+      static const std::set<std::string> figures{"latency_s",       "per_byte_s", "per_hop_s",
+                                                 "service_s",       "fault_s",    "cache_access_s",
+                                                 "send_overhead_s", "poll_s",     "seconds_per_ray"};
       for (const auto& [key, value] : v.items()) {
         if (key == "contention") {
           if (!value.is_boolean()) throw bad("network.contention", "must be true or false");
@@ -117,7 +118,8 @@ MachineDescription load_machine(const std::string& name) {
         }
         if (!figures.count(key))
           throw bad("network." + key, "is not a network figure (latency_s, per_byte_s, per_hop_s, service_s, "
-                                      "fault_s, send_overhead_s, poll_s, seconds_per_ray, contention)");
+                                      "fault_s, cache_access_s, send_overhead_s, poll_s, seconds_per_ray, "
+                                      "contention)");
         if (!value.is_number() || !std::isfinite(value.get<double>()) || value.get<double>() < 0)
           throw bad("network." + key, "must be a finite number of seconds >= 0");
       }
@@ -127,6 +129,7 @@ MachineDescription load_machine(const std::string& name) {
       f.per_hop_s = get("per_hop_s", 0);
       f.service_s = get("service_s", 0);
       f.fault_s = get("fault_s", -1);
+      f.cache_access_s = get("cache_access_s", 0);
       f.send_overhead_s = get("send_overhead_s", 0);
       f.poll_s = get("poll_s", 0);
       f.seconds_per_ray = get("seconds_per_ray", 0);

@@ -244,6 +244,7 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
     m.network.per_hop_s = scale * f.per_hop_s;
     m.network.service_s = scale * f.service_s;
     m.network.fault_s = f.fault_s < 0 ? -1.0 : scale * f.fault_s;
+    m.network.cache_access_s = scale * f.cache_access_s;
     m.network.send_overhead_s = scale * f.send_overhead_s;
     m.network.poll_s = scale * f.poll_s;
     m.network.contention = f.contention;
@@ -328,6 +329,8 @@ NodeRun summarise(const modes::RunResult& r, modes::Mode mode, nodes::ComputeClo
     out.miss_ratio = t.miss_ratio();
     out.cache_miss_ratio = t.cache_miss_ratio();
     out.pages_per_pixel = t.pages_per_pixel();
+    out.accesses = t.accesses;
+    out.cache_page_accesses = t.cache_page_accesses;
     out.evictions = t.evictions;
     const nodes::NodeCounters c = run.total();
     out.page_requests = c.sent[std::size_t(nodes::MessageType::kPageRequest)].messages;

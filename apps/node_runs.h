@@ -228,6 +228,8 @@ struct NodeRun {
   std::optional<double> miss_ratio;        ///< page faults per object access
   std::optional<double> cache_miss_ratio;  ///< page faults per non-home page lookup (once per pixel), from the cache's filling (0 if it never fills)
   std::optional<double> pages_per_pixel;   ///< distinct pages per pixel (the paper's Table 2)
+  std::optional<std::uint64_t> accesses;             ///< object accesses through the page tables
+  std::optional<std::uint64_t> cache_page_accesses;  ///< of them, to cached (non-home) pages
   std::optional<double> communication_rate_bytes_per_s;  ///< page bytes received by all nodes / T_p
   std::optional<std::uint64_t> page_requests;
   std::optional<std::uint64_t> evictions;

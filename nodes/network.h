@@ -82,6 +82,14 @@ struct NetworkModel {
   /// A page fault's own work at the faulting node under the model clock,
   /// virtual seconds; < 0: the cost model's (CostFeature::kPageFault).
   double fault_s = -1;
+  /// Under the model clock, the work of each access to a page held in a
+  /// node's cache (not a home page), virtual seconds: a shared virtual
+  /// memory in software looks the page up and updates its LRU recency on
+  /// every such access, which home pages and one node's run never pay.
+  /// 0 in every preset: no source gives the iPSC/2 svm's figure
+  /// (docs/results.md, "How sensitive the iPSC/2 preset is to the costs
+  /// no source gives"); a machine description may set it.
+  double cache_access_s = 0;
   /// Link contention (links.h): a message holds its route's links while it
   /// streams, and waits for a link another message holds. Off: links are
   /// never busy (a message costs message_time whatever else is sent).

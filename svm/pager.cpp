@@ -17,6 +17,7 @@ constexpr int kSpinYields = 64;
 PagerStats& PagerStats::operator+=(const PagerStats& o) {
   accesses += o.accesses;
   cache_accesses += o.cache_accesses;
+  cache_page_accesses += o.cache_page_accesses;
   cache_misses += o.cache_misses;
   lru_order_frames += o.lru_order_frames;
   misses += o.misses;

@@ -65,6 +65,10 @@ struct PageReplyMsg {
 /// Counters of one node's pager.
 struct PagerStats {
   std::uint64_t accesses = 0;        ///< object accesses through the page table
+  /// Accesses (every one, not only a pixel's first) to pages held in cache
+  /// frames, i.e. not home: what a software shared virtual memory pays its
+  /// cache lookup and LRU recency update on (NetworkModel::cache_access_s).
+  std::uint64_t cache_page_accesses = 0;
   /// First accesses in a pixel to pages that are not home (each an LRU
   /// update), + refaults, counted while the LRU order is kept, i.e. from
   /// the moment the cache is full: before that, cached pages are read like
@@ -186,6 +190,7 @@ class Pager {
       pixel_pages_ += std::uint32_t(e.stamp < stamp);
       e.stamp = stamp;
     }
+    stats_.cache_page_accesses += offset >= home_end_;  // a cache frame (branch-free)
     return frames_ + offset;
   }
   /// True if `p` (from at() or access()) lies in a cache frame, which a later

@@ -50,9 +50,11 @@ struct NodeState {
   control::WorkStats work;
   PagerStats pager_stats;
   core::CostModel cost_model;
+  double cache_access_s = 0;  ///< NetworkModel::cache_access_s
 
   /// The model clock's work meter (NodeContext::set_work_meter): the
-  /// tracer's operations plus the pager's accesses, LRU updates and faults.
+  /// tracer's operations plus the pager's accesses, LRU updates and faults,
+  /// and the machine's own cost of each access to a cached page.
   static double work_seconds(const void* self) {
     const NodeState& s = *static_cast<const NodeState*>(self);
     core::CostCounts c = core::cost_counts(s.scratch->stats.rays, s.scratch->traversal.stats);
@@ -60,7 +62,7 @@ struct NodeState {
     c[std::size_t(core::CostFeature::kPageAccess)] = double(p.accesses);
     c[std::size_t(core::CostFeature::kLruUpdate)] = double(p.lru_updates());
     c[std::size_t(core::CostFeature::kPageFault)] = double(p.misses);
-    return s.cost_model.seconds(c);
+    return s.cost_model.seconds(c) + double(p.cache_page_accesses) * s.cache_access_s;
   }
 
   ~NodeState() {
@@ -282,6 +284,7 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
                                 "one-sided reads (--transport mpi)");
   auto setup = [&](NodeContext& ctx) {
     states[ctx.id()] = make_node_state(ctx, in, rp, submaps[ctx.id()], cost_model, cache[ctx.id()], m.max_payload);
+    states[ctx.id()]->cache_access_s = m.network.cache_access_s;
     if (params.fetch_by_get && m.nodes > 1) {  // collective: every process's node exposes its home frames
       states[ctx.id()]->pager->fetch_by_get(m.transport);
       m.transport->expose(states[ctx.id()]->pager->home_region());
@@ -347,6 +350,7 @@ nlohmann::json SvmResult::to_json() const {
                           {"misses_by_segment", by_segment},
                           {"miss_ratio", p.miss_ratio()},
                           {"cache_accesses", p.cache_accesses},
+                          {"cache_page_accesses", p.cache_page_accesses},
                           {"cache_misses", p.cache_misses},
                           {"cache_miss_ratio", p.cache_miss_ratio()},
                           {"lru_updates", p.lru_updates()},

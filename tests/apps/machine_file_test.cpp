@@ -77,3 +77,24 @@ TEST_CASE("machine file: a bad unit cost or slowdown names the file and the key"
   CHECK(error_of(description("poll", R"({"network": {"poll_s": -1e-6}})"))
             .find("\"network.poll_s\" must be a finite number of seconds >= 0") != std::string::npos);
 }
+
+TEST_CASE("machine file: a network's cache_access_s reaches the machine, scaled as the other figures") {
+  const std::string path = description(
+      "cache_access", R"({"clock": "model", "network": {"latency_s": 1e-3, "cache_access_s": 2e-5,
+                                                        "seconds_per_ray": 1e-2}})");
+  const apps::MachineDescription m = apps::load_machine(path);
+  std::remove(path.c_str());
+  REQUIRE(m.network_figures);
+  CHECK(m.network_figures->cache_access_s == 2e-5);
+  apps::NodeRunOptions o;
+  o.clock = *m.clock;
+  o.machine = "cache_access";
+  o.network = "custom";
+  o.network_figures = m.network_figures;
+  o.network_scale = 1e-6;  // this host's seconds per ray: every figure x 1e-4
+  const apps::NodeRunSpec spec = apps::make_node_run_spec(o);
+  CHECK(spec.machine.network.cache_access_s == doctest::Approx(2e-9));
+  CHECK(spec.machine.network.latency_s == doctest::Approx(1e-7));
+  CHECK(error_of(description("cache_negative", R"({"network": {"cache_access_s": -1}})"))
+            .find("\"network.cache_access_s\" must be a finite number of seconds >= 0") != std::string::npos);
+}

@@ -75,6 +75,33 @@ TEST_CASE("pager: at(address) reads the byte at any offset of a home, fetched or
   }
 }
 
+TEST_CASE("pager: every access to a cached page counts as a cache page access, home pages' accesses do not") {
+  const testing::BuiltScene b = testing::build_spd("teapot", 2);
+  const PagedImage image = build_paged_image(b.db, b.grid, 256);
+  const PageLayout& l = image.layout;
+  REQUIRE(l.pages > 8);
+  for (std::uint32_t cache : {1u, 2u, 64u}) {  // evicting, and with free frames (no LRU order kept)
+    CAPTURE(cache);
+    with_two_nodes(image, cache, [&](Pager& pager, nodes::NodeContext&) {
+      // Node 0 is home of the even pages; the odd ones are cached.
+      std::uint64_t odd = 0, all = 0;
+      for (int pixel = 0; pixel < 3; ++pixel) {
+        pager.begin_pixel();
+        for (std::uint32_t p : {0u, 1u, 1u, 2u, 3u, 3u, 3u, 4u, 1u, 7u, 6u})
+          for (std::uint32_t at : {0u, 100u}) {
+            REQUIRE(*pager.at(l.address(p) + at) == image.page(p)[at]);
+            odd += p % 2;
+            ++all;
+          }
+      }
+      pager.end_pixel();
+      CHECK(pager.stats().accesses == all);
+      CHECK(pager.stats().cache_page_accesses == odd);
+      CHECK(pager.stats().misses > 0);
+    });
+  }
+}
+
 TEST_CASE("pager: a miss fetches the page's bytes from its home node, LRU evicts the least recently used page") {
   const testing::BuiltScene b = testing::build_spd("teapot", 2);
   const PagedImage image = build_paged_image(b.db, b.grid, 64);
