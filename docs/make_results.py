@@ -1488,8 +1488,8 @@ def section_primitive_order(src):
 
 
 def section_moved_scenes(src):
-    name = "moved-scenes-128.csv"
-    rows = read_csv(os.path.join(RESULTS, name))
+    name, meshes = "moved-scenes-128.csv", "moved-cgal-meshes-128.csv"
+    rows = read_csv(os.path.join(RESULTS, name)) + read_csv(os.path.join(RESULTS, meshes))
     scenes = []
     worst = {}
     for r in rows:
@@ -1521,7 +1521,8 @@ def section_moved_scenes(src):
         "sequential, svm and dataflow (4 nodes) and, for the scalings and `--translate`, of the six scales and "
         "three moves. The rendering commands trace with the eye at the origin, and compose `--scale` and "
         "`--translate` with that move, rounding once (docs/architecture.md, \"Numerical robustness\"). "
-        + src.describe(name),
+        + src.describe(name) + " Meshes of Debian's CGAL data (\"Meshes from Debian's CGAL data\"): "
+        + src.describe(meshes),
         "",
         table(["scene", "scaled, worst", "--translate, worst", "file moved 10^2", "file moved 10^3",
                "file moved 10^4"], body),
