@@ -17,9 +17,15 @@
 # nodes, `render MESH [--floor K] --mode svm --nodes 8 --grid adaptive
 # --width 128 --height 128 --stats FILE`, for svm's pages per pixel, and the
 # same with --grid uniform for the mesh alone (on a floor the uniform grid
-# takes minutes a render: its few, huge cells). OUT.csv
+# takes minutes a render: its few, huge cells); and, for the mesh alone, svm's
+# efficiency at 64 nodes on the emulated iPSC/2 with either grid, `bench
+# nodes MESH --mode svm --network ipsc2 --clock model --grid adaptive|uniform
+# --node-memory 16MiB --nodes 1,64 --repeat 3 --width 512 --height 512`: the
+# best of three, as virtual times at 64 nodes vary by a few points from run
+# to run with the order in which nodes steal work items). OUT.csv
 # gets a row per mesh, floor and round: the bench figures, then the
-# validate mismatches and the two pages per pixel (the same on every round).
+# validate mismatches, the two pages per pixel and the two efficiencies (the
+# same on every round).
 set -u
 bin=$(realpath "${1:?RAYNODE}"); dir=$(realpath -m "${2:?DIR}"); out=$(realpath -m "${3:?OUT.csv}")
 rounds=${4:?ROUNDS}
@@ -70,6 +76,12 @@ for m in "${meshes[@]}"; do
       rm -f "$tmp/s.json"
     done
   done
+  for g in adaptive uniform; do
+    "$bin" bench nodes "$m" --mode svm --network ipsc2 --clock model --grid $g --node-memory 16MiB --nodes 1,64 --repeat 3 \
+      --width 512 --height 512 --json "$tmp/n.json" >/dev/null 2>&1
+    echo "nodes_$g|0|$m|0|$(tr -d '\n ' < "$tmp/n.json")" >> "$raw"
+    rm -f "$tmp/n.json"
+  done
 done
 python3 - "$raw" "$out" <<'PY'
 import csv, json, sys
@@ -86,9 +98,13 @@ for line in open(sys.argv[1]):
     elif kind == "validate":
         extra.setdefault((mesh, floor), {})["mismatches"] = d["mismatches"]
         extra[(mesh, floor)]["validate_rays"] = d["rays"]
+    elif kind.startswith("nodes_"):
+        rows = {r["nodes"]: r for r in d["rows"]}
+        extra.setdefault((mesh, floor), {})[kind[6:] + "_efficiency_64"] = f"{rows[64]['efficiency']:.4f}"
     else:
         extra.setdefault((mesh, floor), {})[kind + "_pages_per_pixel"] = f"{d['svm']['pages_per_pixel']:.2f}"
-keys = ["mismatches", "validate_rays", "svm_adaptive_pages_per_pixel", "svm_uniform_pages_per_pixel"]
+keys = ["mismatches", "validate_rays", "svm_adaptive_pages_per_pixel", "svm_uniform_pages_per_pixel",
+        "adaptive_efficiency_64", "uniform_efficiency_64"]
 with open(sys.argv[2], "w", newline="") as f:
     w = csv.writer(f)
     w.writerow(["mesh", "floor", "round", "primitives", "grid_over_embree_time", "grid_rays_per_s",
