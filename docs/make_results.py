@@ -201,6 +201,18 @@ def section_table2(src, paper):
     return "\n".join(text)
 
 
+def efficiency_gap(p, times, n):
+    """raynode's efficiency minus the paper's at n nodes, points, from `times` (nodes -> T_p) and the paper's
+    row p; relative to 2 nodes where the paper has no one-node time (Rings4). None where there is no gap
+    to take (1 node; 2 nodes relative to 2)."""
+    pn = seconds_of(p[f"time_{n}"]) if p[f"time_{n}"] else None
+    if pn is None:
+        return None
+    if p["time_1"]:
+        return None if n == 1 else 100 * (times[1] / (n * times[n]) - seconds_of(p["time_1"]) / (n * pn))
+    return None if n <= 2 else 100 * (2 * times[2] / (n * times[n]) - 2 * seconds_of(p["time_2"]) / (n * pn))
+
+
 def section_table3(src, paper):
     rows = []
     gaps = []
@@ -211,6 +223,7 @@ def section_table3(src, paper):
         t2 = by_nodes[2]["parallel_time_s"]
         p1 = seconds_of(p["time_1"]) if p["time_1"] else None
         p2 = seconds_of(p["time_2"])
+        times = {n: by_nodes[n]["parallel_time_s"] for n in NODE_COUNTS}
         for n in NODE_COUNTS:
             r = by_nodes[n]
             tp = r["parallel_time_s"]
@@ -219,11 +232,10 @@ def section_table3(src, paper):
             ours2 = 2 * t2 / (n * tp)
             theirs = p1 / (n * pn) if p1 and pn else None
             theirs2 = 2 * p2 / (n * pn) if pn else None
-            # Rings4 has no one-node time in the paper: its column is relative to 2 nodes.
-            ref = theirs if theirs is not None else theirs2
-            mine = ours if theirs is not None else ours2
-            if n > (1 if theirs is not None else 2) and ref is not None:
-                gaps.append((100 * (mine - ref), database, n))
+            # Rings4 has no one-node time in the paper: its gap is relative to 2 nodes.
+            gap = efficiency_gap(p, times, n)
+            if gap is not None:
+                gaps.append((gap, database, n))
             rows.append([database if n == 1 else "", n, f"{pct(ours)} / {pct(theirs) if theirs else '-'}",
                          f"{pct(ours2)} / {pct(theirs2) if theirs2 else '-'}" if n >= 2 else "-",
                          f"{hms(r['ipsc2_time_s'])} / {hms(pn) if pn else '-'}"])
@@ -344,25 +356,16 @@ def section_sensitivity(src):
 def section_cache_access(src, paper):
     name = "ipsc2-cache-access-512.csv"
     rows = read_csv(os.path.join(RESULTS, name))
-    scenes = [(d, n) for d, n in PAPER_SCENES[:3]]
-    spec = {"Teapot": "teapot:8", "Mountain": "mount:6 -t 6", "Rings4": "rings:4 -t 1"}
+    scenes = PAPER_SCENES[:3]
     costs = sorted({float(r["cache_access_us"]) for r in rows})
 
     def gaps(database, us):
         """Efficiency minus the paper's, points, at 2..64 nodes (Rings4: relative to 2 nodes)."""
         p = paper[database]
-        by = {int(r["nodes"]): float(r["parallel_time_s"]) for r in rows
-              if r["scene"] == spec[database] and float(r["cache_access_us"]) == us}
-        out = {}
-        for n in NODE_COUNTS[1:]:
-            pn = seconds_of(p[f"time_{n}"])
-            if p["time_1"]:
-                ours, theirs = by[1] / (n * by[n]), seconds_of(p["time_1"]) / (n * pn)
-            else:
-                ours, theirs = 2 * by[2] / (n * by[n]), 2 * seconds_of(p["time_2"]) / (n * pn)
-            if n > 2 or p["time_1"]:
-                out[n] = 100 * (ours - theirs)
-        return out
+        times = {int(r["nodes"]): float(r["parallel_time_s"]) for r in rows
+                 if r["scene"] == p["scene"] and float(r["cache_access_us"]) == us}
+        out = {n: efficiency_gap(p, times, n) for n in NODE_COUNTS[1:]}
+        return {n: g for n, g in out.items() if g is not None}
 
     def span(g):
         return f"{min(g.values()):+.1f} to {max(g.values()):+.1f}"
