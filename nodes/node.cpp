@@ -460,7 +460,17 @@ void NodeContext::return_ray_credit(NodeId source) {
 void NodeContext::accept(const MessageHeader& header, std::span<const std::byte> payload) {
   const std::span<const std::byte> parts[1] = {payload};
   if (mailbox_->try_push(header, parts)) return;
-  MessageHeader h = header;
+  // Full: what the mailbox holds came first (from this sender too, pushed by
+  // the transport's receiving thread), and poll() serves the backlog before
+  // the mailbox, so it moves to the backlog ahead of this message: each
+  // sender's messages stay in order. Popped through a scratch buffer: the
+  // receive buffer may hold the message the owner is handling (has_mail()).
+  thread_local std::vector<std::byte> scratch;
+  scratch.resize(receive_buffer_.size());
+  MessageHeader h;
+  while (mailbox_->try_pop(h, scratch.data()))
+    backlog_.push_back(Parked{h, std::pmr::vector<std::byte>(scratch.data(), scratch.data() + h.payload_bytes, &arena_)});
+  h = header;
   h.payload_bytes = std::uint32_t(payload.size());
   backlog_.push_back(Parked{h, std::pmr::vector<std::byte>(payload.begin(), payload.end(), &arena_)});
   counters_.backlog_peak = std::max<std::uint64_t>(counters_.backlog_peak, backlog_.size());

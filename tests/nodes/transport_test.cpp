@@ -69,6 +69,8 @@ class LoopbackTransport final : public Transport {
     std::unique_lock<std::mutex> order(order_, std::defer_lock);
     if (wait) order.lock();
     else if (!order.try_lock()) return false;
+    const bool gated = std::this_thread::get_id() != ungated_.load();
+    if (gated && gate_ == 0) return false;
     Hub::Packet p;
     {
       std::lock_guard<std::mutex> lock(hub_.mutex);
@@ -77,7 +79,9 @@ class LoopbackTransport final : public Transport {
       p = std::move(q.front());
       q.pop_front();
     }
+    if (gated && gate_ > 0) --gate_;
     deliver_(p.dest, p.header, p.payload);
+    delivered_.fetch_add(1);
     return true;
   }
   void finish() override {
@@ -100,6 +104,21 @@ class LoopbackTransport final : public Transport {
     hub_.sync.arrive_and_wait();
   }
   std::uint64_t sent() const { return sent_; }
+  /// Lets the threads other than the exempt one (the receiving thread, the
+  /// participants' polls) deliver `packets` more (< 0: any number).
+  void open_gate(int packets) {
+    std::lock_guard<std::mutex> lock(order_);
+    gate_ = packets;
+  }
+  /// The calling thread's polls are never held by the gate.
+  void exempt_this_thread() { ungated_ = std::this_thread::get_id(); }
+  /// Packets delivered so far, by either thread.
+  std::uint64_t delivered() const { return delivered_.load(); }
+  /// Packets waiting for this process.
+  std::size_t queued() {
+    std::lock_guard<std::mutex> lock(hub_.mutex);
+    return hub_.queues[process_].size();
+  }
 
  private:
   Hub& hub_;
@@ -108,6 +127,9 @@ class LoopbackTransport final : public Transport {
   std::mutex order_;
   std::thread receiver_;
   std::atomic<bool> stopping_{false};
+  int gate_ = -1;  ///< open_gate(), under order_
+  std::atomic<std::thread::id> ungated_{};
+  std::atomic<std::uint64_t> delivered_{0};
   std::uint64_t sent_ = 0;
 };
 
@@ -201,6 +223,52 @@ TEST_CASE("transport: 4 processes over a loopback transport run all-to-all as th
   // (kNodes - 1) x kRounds to the others, plus its report to the host unless it is on process 0.
   for (std::uint32_t p = 0; p < kNodes; ++p)
     CHECK(transports[p]->sent() == kRounds * (kNodes - 1) + (p == 0 ? 0 : 1) + (p == 0 ? kNodes - 1 : 0));
+}
+
+TEST_CASE("transport: a node's own poll that finds its mailbox full keeps each sender's messages in order") {
+  // Node 1 sends kCount messages to node 0, whose mailbox holds 4. The
+  // transport's other threads deliver the first 4 and stop; node 0's mail checks
+  // (has_mail) then take the rest from the transport on its own thread and
+  // park them. Node 0 must still receive 0, 1, 2, ... in order.
+  constexpr std::uint32_t kCount = 9, kCapacity = 4;
+  MachineParams base;
+  base.nodes = 2;
+  base.mailbox_capacity = kCapacity;
+  base.timeout_s = 60;
+  Hub hub(2);
+  LoopbackTransport t0(hub, 0), t1(hub, 1);
+  t0.open_gate(0);  // nothing is delivered to process 0 until all are sent
+  std::vector<std::uint32_t> order;
+  auto node = [&](NodeContext& ctx) {
+    if (ctx.id() == 1) {
+      for (std::uint32_t r = 0; r < kCount; ++r) ctx.send(0, MessageType::kTest, Hello{1, r});
+    } else {
+      t0.exempt_this_thread();
+      while (t0.queued() < kCount) std::this_thread::yield();
+      t0.open_gate(int(kCapacity));
+      while (t0.delivered() < kCapacity) std::this_thread::yield();
+      for (int i = 0; i < 64; ++i) (void)ctx.has_mail();  // every 16th looks into the transport, then each one
+      t0.open_gate(-1);
+      for (std::uint32_t r = 0; r < kCount; ++r) order.push_back(ctx.receive(WaitKind::kIdle).as<Hello>().round);
+    }
+    ctx.send(kHost, MessageType::kNodeDone, Hello{ctx.id(), 0});
+    while (ctx.receive(WaitKind::kIdle).type() != MessageType::kShutdown) {
+    }
+  };
+  std::vector<std::uint32_t> reported;
+  std::vector<std::thread> processes;
+  for (LoopbackTransport* t : {&t0, &t1})
+    processes.emplace_back([&, t] {
+      MachineParams mp = base;
+      mp.transport = t;
+      Machine(mp).run(node, [&](NodeContext& host) { gathering_host(host, reported); });
+    });
+  for (std::thread& t : processes) t.join();
+  std::vector<std::uint32_t> want(kCount);
+  for (std::uint32_t r = 0; r < kCount; ++r) want[r] = r;
+  CHECK(order == want);
+  // Node 0 took packets itself, beyond what the receiving thread was let through.
+  CHECK(t0.delivered() >= kCount);
 }
 
 TEST_CASE("transport: a machine over a transport needs one node per process") {
