@@ -143,6 +143,7 @@ std::vector<core::CostSample> pager_samples(const core::Database& db, const core
             c[std::size_t(core::CostFeature::kPageAccess)] = double(p.accesses);
             c[std::size_t(core::CostFeature::kLruUpdate)] = double(p.lru_updates());
             c[std::size_t(core::CostFeature::kPageFault)] = double(p.misses);
+            c[std::size_t(core::CostFeature::kCachePageAccess)] = double(p.cache_page_accesses);
           };
           auto in_pixel = [&](auto&& trace) {
             pager.begin_pixel();
@@ -208,8 +209,11 @@ HostFit fit_on_host(const CostModelOptions& o) {
     const bool is_pager = k >= int(core::CostFeature::kPageAccess);
     tracer[std::size_t(k)] = !is_pager;
     // A fault's CPU time in an emulated run is mostly the emulator's
-    // (thread wake-up, cold caches): its cost stays the modelled one.
-    paging[std::size_t(k)] = is_pager && k != int(core::CostFeature::kPageFault);
+    // (thread wake-up, cold caches): its cost stays the modelled one. A
+    // cached page's access costs this host no more than another access
+    // (kPageAccess): it stays 0 unless a machine description prices it.
+    paging[std::size_t(k)] = is_pager && k != int(core::CostFeature::kPageFault) &&
+                             k != int(core::CostFeature::kCachePageAccess);
   }
   core::CostModel start;
   start.unit_s[std::size_t(core::CostFeature::kPageFault)] =

@@ -20,6 +20,7 @@ const char* cost_feature_name(CostFeature f) {
     case CostFeature::kPageAccess: return "page_access";
     case CostFeature::kLruUpdate: return "lru_update";
     case CostFeature::kPageFault: return "page_fault";
+    case CostFeature::kCachePageAccess: return "cache_page_access";
     case CostFeature::kCount: break;
   }
   return "?";

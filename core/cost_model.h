@@ -44,6 +44,7 @@ enum class CostFeature : int {
   kPageAccess,    ///< svm: object access through the page table
   kLruUpdate,     ///< svm: LRU stamp given (svm::PagerStats::lru_updates: a cached page's first access in a pixel once the cache is full)
   kPageFault,     ///< svm: local work of a page fault (victim, frame copy, table); modelled, not fitted
+  kCachePageAccess,  ///< svm: access to a page held in the cache, not a home page (svm::PagerStats::cache_page_accesses); priced by a machine description only
   kCount
 };
 inline constexpr int kCostFeatureCount = int(CostFeature::kCount);
@@ -112,6 +113,11 @@ inline CostModel default_cost_model() {
   // network replaces it with the iPSC/2's figure, scaled
   // (nodes::NetworkModel::fault_s).
   at(CostFeature::kPageFault) = 150e-9;
+  // Not fitted, 0 here: on this host a cached page's access costs what any
+  // page access does (kPageAccess). A machine whose software shared memory
+  // pays more for it says so (nodes::NetworkModel::cache_access_s, which
+  // replaces this figure).
+  at(CostFeature::kCachePageAccess) = 0;
   return m;
 }
 

@@ -50,11 +50,10 @@ struct NodeState {
   control::WorkStats work;
   PagerStats pager_stats;
   core::CostModel cost_model;
-  double cache_access_s = 0;  ///< NetworkModel::cache_access_s
 
   /// The model clock's work meter (NodeContext::set_work_meter): the
-  /// tracer's operations plus the pager's accesses, LRU updates and faults,
-  /// and the machine's own cost of each access to a cached page.
+  /// tracer's operations plus the pager's accesses, accesses to cached
+  /// pages, LRU updates and faults.
   static double work_seconds(const void* self) {
     const NodeState& s = *static_cast<const NodeState*>(self);
     core::CostCounts c = core::cost_counts(s.scratch->stats.rays, s.scratch->traversal.stats);
@@ -62,7 +61,8 @@ struct NodeState {
     c[std::size_t(core::CostFeature::kPageAccess)] = double(p.accesses);
     c[std::size_t(core::CostFeature::kLruUpdate)] = double(p.lru_updates());
     c[std::size_t(core::CostFeature::kPageFault)] = double(p.misses);
-    return s.cost_model.seconds(c) + double(p.cache_page_accesses) * s.cache_access_s;
+    c[std::size_t(core::CostFeature::kCachePageAccess)] = double(p.cache_page_accesses);
+    return s.cost_model.seconds(c);
   }
 
   ~NodeState() {
@@ -276,15 +276,17 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
   // The load phase (outside virtual time): each node gets its home pages
   // and the metadata; after the last node the host's image is protected.
   // The model clock's unit costs; a network that prices a fault's own work
-  // (ipsc2: NetworkModel::fault_s) replaces the cost model's figure.
+  // (ipsc2: NetworkModel::fault_s) or an access to a cached page
+  // (NetworkModel::cache_access_s) replaces the cost model's figure.
   core::CostModel cost_model = m.cost_model;
   if (m.network.fault_s >= 0) cost_model.unit_s[std::size_t(core::CostFeature::kPageFault)] = m.network.fault_s;
+  if (m.network.cache_access_s > 0)
+    cost_model.unit_s[std::size_t(core::CostFeature::kCachePageAccess)] = m.network.cache_access_s;
   if (params.fetch_by_get && !(m.transport && m.transport->reads_remote()))
     throw std::invalid_argument("--page-fetch get reads home pages one-sidedly: it needs a transport with "
                                 "one-sided reads (--transport mpi)");
   auto setup = [&](NodeContext& ctx) {
     states[ctx.id()] = make_node_state(ctx, in, rp, submaps[ctx.id()], cost_model, cache[ctx.id()], m.max_payload);
-    states[ctx.id()]->cache_access_s = m.network.cache_access_s;
     if (params.fetch_by_get && m.nodes > 1) {  // collective: every process's node exposes its home frames
       states[ctx.id()]->pager->fetch_by_get(m.transport);
       m.transport->expose(states[ctx.id()]->pager->home_region());

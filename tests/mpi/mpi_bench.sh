@@ -29,7 +29,7 @@ assert p["rounds"] == 3 and len(p["round_slowdowns"]) == 3 and len(p["round_poll
 assert p["alone_s"] > 0 and p["shared_s"] > 0 and p["transport_s"] > 0 and p["mail_checks"] > 0, p
 assert m["corun_slowdown"] == max(1.0, p["corun_slowdown"]) and n["poll_s"] == p["poll_s"], (m, p)
 c = m["cost_model"]  # this host's unit costs, every one named
-assert len(c) == 13 and all(v >= 0 for v in c.values()) and c["primary_ray"] > 0 and c["triangle_test"] > 0, c
+assert len(c) == 14 and all(v >= 0 for v in c.values()) and c["primary_ray"] > 0 and c["triangle_test"] > 0, c
 # A description with figures large enough to see, for the render below.
 m["corun_slowdown"] = 1.5
 n["poll_s"] = 1e-4

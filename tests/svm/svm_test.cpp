@@ -334,34 +334,40 @@ TEST_CASE("svm: under the model clock a fault's own work costs the network's fau
   }
 }
 
-TEST_CASE("svm: under the model clock each access to a cached page costs the network's cache_access_s") {
+TEST_CASE("svm: under the model clock each access to a cached page costs the network's cache_access_s or the cost model's") {
   const testing::BuiltScene b = testing::build_spd("teapot", 2);
   const double big = 1e-4;  // far above the tracing of one access
   for (const std::uint32_t nodes : {1u, 2u, 4u}) {
     CAPTURE(nodes);
-    double busy[2] = {};
-    PagerStats t[2];
-    for (const int priced : {0, 1}) {
+    double busy[3] = {};
+    PagerStats t[3];
+    // 0: not priced; 1: by the network; 2: by the cost model's unit cost.
+    for (const int priced : {0, 1, 2}) {
       SvmParams p = small_params(nodes, 0);
       p.machine.clock = nodes::ComputeClock::kModel;
       p.machine.network = nodes::make_network("none");
-      p.machine.network.cache_access_s = priced ? big : 0.0;
+      p.machine.network.cache_access_s = priced == 1 ? big : 0.0;
+      p.machine.cost_model.unit_s[std::size_t(core::CostFeature::kCachePageAccess)] = priced == 2 ? big : 0.0;
       const SvmResult r = render_svm(b.db, b.grid, p);
       busy[priced] = r.run.total().busy_s;
       t[priced] = r.pager_total();
     }
-    if (nodes == 1) {  // every page is home: nothing to price, the same virtual time
-      CHECK(t[1].cache_page_accesses == 0);
-      CHECK(busy[1] == doctest::Approx(busy[0]).epsilon(1e-9));
-      continue;
+
+    for (const int priced : {1, 2}) {
+      CAPTURE(priced);
+      if (nodes == 1) {  // every page is home: nothing to price, the same virtual time
+        CHECK(t[priced].cache_page_accesses == 0);
+        CHECK(busy[priced] == doctest::Approx(busy[0]).epsilon(1e-9));
+        continue;
+      }
+      // Node by node, pages are cached that another node is home of: every
+      // access to them is priced, and only those (home pages are not).
+      REQUIRE(t[priced].cache_page_accesses > t[priced].misses);
+      CHECK(t[priced].cache_page_accesses < t[priced].accesses);
+      const double priced_s = double(t[priced].cache_page_accesses) * big;
+      CHECK(busy[priced] >= priced_s + 0.5 * busy[0]);
+      CHECK(busy[priced] <= priced_s + 2.0 * busy[0]);
     }
-    // Node by node, pages are cached that another node is home of: every
-    // access to them is priced, and only those (home pages are not).
-    REQUIRE(t[1].cache_page_accesses > t[1].misses);
-    CHECK(t[1].cache_page_accesses < t[1].accesses);
-    const double priced_s = double(t[1].cache_page_accesses) * big;
-    CHECK(busy[1] >= priced_s + 0.5 * busy[0]);
-    CHECK(busy[1] <= priced_s + 2.0 * busy[0]);
   }
 }
 
