@@ -120,9 +120,9 @@ inline constexpr float kNearOrigin = 0x1p-17f;
 
 inline WatertightRay::WatertightRay(const Ray& ray) : WatertightRay(ray.direction) {
   max_dir = max_component(abs(ray.direction));
-  // A piece of a ray in the tracing frame (tmin < 0: framed_ray) starts at a
-  // point of the ray's line, not on a surface: nothing is refused there.
-  near_origin = ray.tmin < 0.0f ? -kInfinity : kNearOrigin * max_component(abs(ray.origin));
+  // A piece of a ray in the tracing frame starts at a point of the ray's
+  // line, not on a surface: nothing is refused there.
+  near_origin = is_framed_piece(ray) ? -kInfinity : kNearOrigin * max_component(abs(ray.origin));
 }
 
 /// The ray parameter where the ray's line crosses the triangle's plane,
@@ -210,14 +210,14 @@ struct ScalarOps {
 /// it: not a hit); beyond that the float t is just not good enough (a huge
 /// triangle), so the plane is asked in double and `t` becomes its answer
 /// when that exceeds its own bound. A piece of a ray in the tracing frame
-/// (ray.tmin < 0, framed_ray) starts at a point of the ray's line, not on a
+/// (is_framed_piece) starts at a point of the ray's line, not on a
 /// surface: it refuses nothing near its origin, and takes the double t from
 /// its tmin on (a floor crossed at the frame's edge, just before or after
 /// the piece's origin). Out of line: the callers' loops keep their
 /// registers.
 [[gnu::noinline]] inline bool refine_unreliable_t(const Ray& ray, float t_err, const Vec3& v0, const Vec3& v1,
                                                   const Vec3& v2, float& t) {
-  if (ray.tmin >= 0.0f &&
+  if (!is_framed_piece(ray) &&
       t_err * max_component(abs(ray.direction)) <= kNearOrigin * max_component(abs(ray.origin)))
     return false;
   double td = 0, err = 0;

@@ -114,6 +114,12 @@ struct Ray {
   constexpr Vec3 at(float t) const { return origin + direction * t; }
 };
 
+/// True for a piece of a ray in the tracing frame (framed_ray, traverse.h):
+/// it starts at a point of the ray's line, not on a surface, and its tmin
+/// < 0 reaches back to where the line enters the frame. Such a piece
+/// refuses no hit near its origin (finish_watertight).
+inline bool is_framed_piece(const Ray& r) { return r.tmin < 0.0f; }
+
 /// True when origin and direction are finite, direction non-zero, and
 /// 0 <= tmin <= tmax (tmax may be +inf). NaN rays are rejected here.
 inline bool is_valid_ray(const Ray& r) {

@@ -18,16 +18,7 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 echo "scene,width,cache_access_us,nodes,parallel_time_s,efficiency,cache_page_accesses,accesses"
 for us in ${costs//,/ }; do
-  python3 - "$us" > "$work/m.json" <<'PY'
-import json, sys
-so, start = 350e-6, 1024 / 0.9e6 - 1024 / 2.75e6  # the preset's: 0.35 ms sender, the paper's start-up
-print(json.dumps({"name": "ipsc2-cache-access", "node_memory": "4MiB", "page_size": 1024, "topology": "hypercube",
-                  "clock": "model",
-                  "network": {"latency_s": start - so, "per_byte_s": 1 / 2.75e6, "per_hop_s": 10e-6,
-                              "service_s": 100e-6, "fault_s": 100e-6, "send_overhead_s": so,
-                              "cache_access_s": float(sys.argv[1]) * 1e-6,
-                              "seconds_per_ray": 11522.0 / 1397473.0, "contention": True}}))
-PY
+  python3 "$(dirname "$0")/ipsc2_machine.py" ipsc2-cache-access "cache_access_s=${us}e-6" > "$work/m.json"
   # shellcheck disable=SC2086  # the scene spec may carry options (rings:4 -t 1)
   "$raynode" bench nodes $scene --mode svm --machine "$work/m.json" --shadow-rays all --grid uniform \
     --nodes "$nodes" --width "$width" --height "$width" --json "$work/o.json" > /dev/null

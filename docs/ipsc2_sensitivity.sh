@@ -16,16 +16,8 @@ echo "scene,width,nodes,send_overhead_ms,service_ms,contention,t1_s,parallel_tim
 for so in 0 0.35 0.765; do
   for sv in 0.1 0.5 1.0; do
     for c in true false; do
-      python3 - "$so" "$sv" "$c" > "$work/m.json" <<'PY'
-import json, sys
-so, sv, c = float(sys.argv[1]) * 1e-3, float(sys.argv[2]) * 1e-3, sys.argv[3] == "true"
-start = 1024 / 0.9e6 - 1024 / 2.75e6  # the paper's start-up: 1 KiB at 0.9 MB/s, 2.75 MB/s peak
-print(json.dumps({"name": "ipsc2-sensitivity", "node_memory": "4MiB", "page_size": 1024, "topology": "hypercube",
-                  "clock": "model",
-                  "network": {"latency_s": start - so, "per_byte_s": 1 / 2.75e6, "per_hop_s": 10e-6,
-                              "service_s": sv, "fault_s": 100e-6, "send_overhead_s": so,
-                              "seconds_per_ray": 11522.0 / 1397473.0, "contention": c}}))
-PY
+      python3 "$(dirname "$0")/ipsc2_machine.py" ipsc2-sensitivity "send_overhead_s=${so}e-3" \
+        "service_s=${sv}e-3" "contention=$c" > "$work/m.json"
       # shellcheck disable=SC2086  # the scene spec may carry options (rings:4 -t 1)
       "$raynode" bench nodes $scene --mode svm --machine "$work/m.json" --nodes "1,$nodes" --width "$width" \
         --height "$width" --json "$work/o.json" > /dev/null
