@@ -831,6 +831,54 @@ def section_cgal_meshes(src):
     ])
 
 
+def section_cgal_more_meshes(src):
+    name = "cgal-meshes-more-2core.csv"
+    rows = read_csv(os.path.join(RESULTS, name))
+    meshes = []
+    by = {}
+    for r in rows:
+        if r["mesh"] not in meshes:
+            meshes.append(r["mesh"])
+        by.setdefault((r["mesh"], r["floor"]), []).append(r)
+    floors = ["0", "100", "1000"]
+    ratio = {(m, f): median(float(r["grid_over_embree_time"]) for r in by[(m, f)]) for m in meshes for f in floors}
+    build = {m: median(float(r["grid_build_s"]) / float(r["embree_build_s"]) for r in by[(m, "0")]) for m in meshes}
+    body = []
+    for m in meshes:
+        r0 = by[(m, "0")][0]
+        body.append([m, f"{int(r0['primitives']):,}"] + [f"{ratio[(m, f)]:.2f}" for f in floors] + [
+            f"{float(r0['tests_per_ray']):.1f}", f"{build[m]:.2f}",
+            f"{int(r0['grid_bytes']) / int(r0['embree_bytes']):.2f}",
+            f"{sum(int(by[(m, f)][0]['mismatches']) for f in floors)}"])
+    body.sort(key=lambda b: float(b[2]))
+    alone = [ratio[(m, "0")] for m in meshes]
+    stadium = [ratio[(m, f)] for m in meshes for f in floors[1:]]
+    worst = max(ratio.items(), key=lambda kv: kv[1])
+    rays = sum(int(by[(m, f)][0]["validate_rays"]) for m in meshes for f in floors)
+    mismatches = sum(int(by[(m, f)][0]["mismatches"]) for m in meshes for f in floors)
+    tests_over = [m for m in meshes if float(by[(m, "0")][0]["tests_per_ray"]) > 30]
+    slower_build = [m for m in meshes if build[m] > 1.0]
+    floor_name = {"0": "alone", "100": "on a 100x floor", "1000": "on a 1000x floor"}
+    tri = [int(by[(m, "0")][0]["primitives"]) for m in meshes]
+    return "\n".join([
+        "## More meshes from Debian's CGAL data",
+        "",
+        f"The same measures but svm's on {len(meshes)} more meshes of `libcgal-demo` ({min(tri):,} to "
+        f"{max(tri):,} triangles: CAD parts, scans and modelled meshes): " + src.describe(name),
+        "",
+        table(["mesh", "triangles", "grid / Embree", "on a 100x floor", "on a 1000x floor", "tests per ray",
+               "grid / Embree build time", "grid / Embree memory", "validate mismatches"], body),
+        "",
+        f"- Grid / Embree, one thread, the same rays (the median of the rounds): {sum(x <= 1.3 for x in alone)} of "
+        f"{len(alone)} meshes alone and {sum(x <= 1.3 for x in stadium)} of {len(stadium)} stadium variants within "
+        f"1.3x; geometric mean {geometric_mean(alone):.2f} alone, {geometric_mean(stadium):.2f} on the floors; the "
+        f"slowest against Embree is {worst[0][0]} {floor_name[worst[0][1]]}, at {worst[1]:.2f}x.",
+        f"- Tests per ray above 30: {', '.join(tests_over) if tests_over else 'none'}. Grid builds slower than "
+        f"Embree's: {', '.join(slower_build) if slower_build else 'none'}.",
+        f"- `validate` found {mismatches} mismatches in {rays:,} rays over the {len(meshes) * len(floors)} scenes.",
+    ])
+
+
 def section_embree_queries(src):
     name = "embree-queries-ab-2core.csv"
     body = []
@@ -1624,6 +1672,8 @@ def page():
         section_accel(src),
         "",
         section_cgal_meshes(src),
+        "",
+        section_cgal_more_meshes(src),
         "",
         section_embree_queries(src),
         "",

@@ -25,7 +25,8 @@
 # to run with the order in which nodes steal work items). OUT.csv
 # gets a row per mesh, floor and round: the bench figures, then the
 # validate mismatches, the two pages per pixel and the two efficiencies (the
-# same on every round).
+# same on every round). With SVM=off in the environment the svm renders and
+# bench nodes are skipped, and their columns stay empty.
 set -u
 bin=$(realpath "${1:?RAYNODE}"); dir=$(realpath -m "${2:?DIR}"); out=$(realpath -m "${3:?OUT.csv}")
 rounds=${4:?ROUNDS}
@@ -66,6 +67,7 @@ for m in "${meshes[@]}"; do
     # shellcheck disable=SC2086
     j=$("$bin" validate "$m" $f --json 2>/dev/null | tr -d '\n ')
     echo "validate|0|$m|${f#--floor }|$j" >> "$raw"
+    [ "${SVM:-on}" = off ] && continue
     grids=(adaptive)
     [ -z "$f" ] && grids+=(uniform)  # the uniform grid on a floor: minutes a render, as the issue's stadiums
     for g in "${grids[@]}"; do
@@ -76,6 +78,7 @@ for m in "${meshes[@]}"; do
       rm -f "$tmp/s.json"
     done
   done
+  [ "${SVM:-on}" = off ] && continue
   for g in adaptive uniform; do
     "$bin" bench nodes "$m" --mode svm --network ipsc2 --clock model --grid $g --node-memory 16MiB --nodes 1,64 --repeat 3 \
       --width 512 --height 512 --json "$tmp/n.json" >/dev/null 2>&1
