@@ -755,46 +755,75 @@ def section_accel(src):
     ])
 
 
+class CgalMeshes:
+    """The rows of a docs/scanned_meshes.sh CSV, by mesh and floor, with what both CGAL sections show: the
+    grid / Embree medians, the table's common columns and the summary lines on speed, tests and validate."""
+    FLOORS = ["0", "100", "1000"]
+    FLOOR_NAME = {"0": "alone", "100": "on a 100x floor", "1000": "on a 1000x floor"}
+    HEADER = ["mesh", "triangles", "grid / Embree", "on a 100x floor", "on a 1000x floor", "tests per ray",
+              "grid / Embree build time", "grid / Embree memory", "validate mismatches"]
+
+    def __init__(self, name):
+        self.meshes, self.by = [], {}
+        for r in read_csv(os.path.join(RESULTS, name)):
+            if r["mesh"] not in self.meshes:
+                self.meshes.append(r["mesh"])
+            self.by.setdefault((r["mesh"], r["floor"]), []).append(r)
+        self.ratio = {(m, f): median(float(r["grid_over_embree_time"]) for r in self.by[(m, f)])
+                      for m in self.meshes for f in self.FLOORS}
+        self.build = {m: median(float(r["grid_build_s"]) / float(r["embree_build_s"]) for r in self.by[(m, "0")])
+                      for m in self.meshes}
+
+    def first(self, mesh, floor="0"):
+        """The mesh's first row on `floor` (the figures that are the same on every round)."""
+        return self.by[(mesh, floor)][0]
+
+    def row(self, m):
+        """The table's common columns for mesh m."""
+        r0 = self.first(m)
+        return [m, f"{int(r0['primitives']):,}"] + [f"{self.ratio[(m, f)]:.2f}" for f in self.FLOORS] + [
+            f"{float(r0['tests_per_ray']):.1f}", f"{self.build[m]:.2f}",
+            f"{int(r0['grid_bytes']) / int(r0['embree_bytes']):.2f}",
+            f"{sum(int(self.first(m, f)['mismatches']) for f in self.FLOORS)}"]
+
+    def summary(self, build_note=""):
+        """The lines on grid / Embree time, tests per ray and builds, and validate."""
+        alone = [self.ratio[(m, "0")] for m in self.meshes]
+        stadium = [self.ratio[(m, f)] for m in self.meshes for f in self.FLOORS[1:]]
+        worst = max(self.ratio.items(), key=lambda kv: kv[1])
+        rays = sum(int(self.first(m, f)["validate_rays"]) for m in self.meshes for f in self.FLOORS)
+        mismatches = sum(int(self.first(m, f)["mismatches"]) for m in self.meshes for f in self.FLOORS)
+        tests_over = [m for m in self.meshes if float(self.first(m)["tests_per_ray"]) > 30]
+        slower_build = [m for m in self.meshes if self.build[m] > 1.0]
+        return [
+            f"- Grid / Embree, one thread, the same rays (the median of the rounds): {sum(x <= 1.3 for x in alone)} "
+            f"of {len(alone)} meshes alone and {sum(x <= 1.3 for x in stadium)} of {len(stadium)} stadium variants "
+            f"within 1.3x; geometric mean {geometric_mean(alone):.2f} alone, {geometric_mean(stadium):.2f} on the "
+            f"floors; the slowest against Embree is {worst[0][0]} {self.FLOOR_NAME[worst[0][1]]}, at "
+            f"{worst[1]:.2f}x.",
+            f"- Tests per ray above 30: {', '.join(tests_over) if tests_over else 'none'}. Grid builds slower than "
+            f"Embree's: {', '.join(slower_build) if slower_build else 'none'}{build_note}.",
+            f"- `validate` found {mismatches} mismatches in {rays:,} rays over the "
+            f"{len(self.meshes) * len(self.FLOORS)} scenes.",
+        ]
+
+
 def section_cgal_meshes(src):
     name = "cgal-meshes-2core.csv"
-    rows = read_csv(os.path.join(RESULTS, name))
-    meshes = []
-    by = {}
-    for r in rows:
-        if r["mesh"] not in meshes:
-            meshes.append(r["mesh"])
-        by.setdefault((r["mesh"], r["floor"]), []).append(r)
-    floors = ["0", "100", "1000"]
-
-    def med(mesh, floor, f):
-        return median(f(r) for r in by[(mesh, floor)])
-
-    ratio = {(m, f): med(m, f, lambda r: float(r["grid_over_embree_time"])) for m in meshes for f in floors}
-    build = {m: med(m, "0", lambda r: float(r["grid_build_s"]) / float(r["embree_build_s"])) for m in meshes}
+    c = CgalMeshes(name)
     body = []
-    for m in meshes:
-        r0, r1000 = by[(m, "0")][0], by[(m, "1000")][0]
-        body.append([m, f"{int(r0['primitives']):,}"] + [f"{ratio[(m, f)]:.2f}" for f in floors] + [
-            f"{float(r0['tests_per_ray']):.1f}", f"{build[m]:.2f}",
-            f"{int(r0['grid_bytes']) / int(r0['embree_bytes']):.2f}",
-            f"{sum(int(by[(m, f)][0]['mismatches']) for f in floors)}",
+    for m in c.meshes:
+        r0, r1000 = c.first(m), c.first(m, "1000")
+        body.append(c.row(m) + [
             f"{r0['svm_adaptive_pages_per_pixel']} / {r0['svm_uniform_pages_per_pixel']}",
             r1000["svm_adaptive_pages_per_pixel"],
             f"{pct(float(r0['adaptive_efficiency_64']))} / {pct(float(r0['uniform_efficiency_64']))}"])
     body.sort(key=lambda b: float(b[2]))
-    alone = [ratio[(m, "0")] for m in meshes]
-    stadium = [ratio[(m, f)] for m in meshes for f in floors[1:]]
-    worst = max(ratio.items(), key=lambda kv: kv[1])
-    rays = sum(int(by[(m, f)][0]["validate_rays"]) for m in meshes for f in floors)
-    mismatches = sum(int(by[(m, f)][0]["mismatches"]) for m in meshes for f in floors)
-    pages = [float(by[(m, "0")][0]["svm_adaptive_pages_per_pixel"]) /
-             float(by[(m, "0")][0]["svm_uniform_pages_per_pixel"]) for m in meshes]
-    halved = [m for m, p in zip(meshes, pages) if p <= 0.5]
-    eff_a = [float(by[(m, "0")][0]["adaptive_efficiency_64"]) for m in meshes]
-    eff_u = [float(by[(m, "0")][0]["uniform_efficiency_64"]) for m in meshes]
-    tests_over = [m for m in meshes if float(by[(m, "0")][0]["tests_per_ray"]) > 30]
-    slower_build = [m for m in meshes if build[m] > 1.0]
-    floor_name = {"0": "alone", "100": "on a 100x floor", "1000": "on a 1000x floor"}
+    pages = [float(c.first(m)["svm_adaptive_pages_per_pixel"]) / float(c.first(m)["svm_uniform_pages_per_pixel"])
+             for m in c.meshes]
+    halved = [m for m, p in zip(c.meshes, pages) if p <= 0.5]
+    eff_a = [float(c.first(m)["adaptive_efficiency_64"]) for m in c.meshes]
+    eff_u = [float(c.first(m)["uniform_efficiency_64"]) for m in c.meshes]
     return "\n".join([
         "## Meshes from Debian's CGAL data",
         "",
@@ -803,19 +832,10 @@ def section_cgal_meshes(src):
         "framed as raynode frames a mesh without a camera, and on a square floor 100x and 1000x its width "
         "(`--floor`): " + src.describe(name),
         "",
-        table(["mesh", "triangles", "grid / Embree", "on a 100x floor", "on a 1000x floor", "tests per ray",
-               "grid / Embree build time", "grid / Embree memory", "validate mismatches",
-               "svm pages per pixel, adaptive / uniform", "svm pages per pixel on a 1000x floor",
-               "svm efficiency at 64 nodes, adaptive / uniform"], body),
+        table(c.HEADER + ["svm pages per pixel, adaptive / uniform", "svm pages per pixel on a 1000x floor",
+                          "svm efficiency at 64 nodes, adaptive / uniform"], body),
         "",
-        f"- Grid / Embree, one thread, the same rays (the median of the rounds): {sum(x <= 1.3 for x in alone)} of "
-        f"{len(alone)} meshes alone and {sum(x <= 1.3 for x in stadium)} of {len(stadium)} stadium variants within "
-        f"1.3x; geometric mean {geometric_mean(alone):.2f} alone, {geometric_mean(stadium):.2f} on the floors; the "
-        f"slowest against Embree is {worst[0][0]} {floor_name[worst[0][1]]}, at {worst[1]:.2f}x.",
-        f"- Tests per ray above 30: {', '.join(tests_over) if tests_over else 'none'}. Grid builds slower than "
-        f"Embree's: {', '.join(slower_build) if slower_build else 'none'} (the grid's build on all threads, "
-        "Embree's on all threads).",
-        f"- `validate` found {mismatches} mismatches in {rays:,} rays over the {len(meshes) * len(floors)} scenes.",
+    ] + c.summary(" (the grid's build on all threads, Embree's on all threads)") + [
         f"- svm's pages per pixel with the adaptive grid are {median(pages):.2f}x the uniform grid's (the median over "
         f"the meshes alone; {min(pages):.2f}-{max(pages):.2f}x), at most half on {', '.join(halved)}. A mesh alone "
         "fills its box, which a uniform grid already fits; the others gain less. On the floors only the adaptive "
@@ -833,50 +853,18 @@ def section_cgal_meshes(src):
 
 def section_cgal_more_meshes(src):
     name = "cgal-meshes-more-2core.csv"
-    rows = read_csv(os.path.join(RESULTS, name))
-    meshes = []
-    by = {}
-    for r in rows:
-        if r["mesh"] not in meshes:
-            meshes.append(r["mesh"])
-        by.setdefault((r["mesh"], r["floor"]), []).append(r)
-    floors = ["0", "100", "1000"]
-    ratio = {(m, f): median(float(r["grid_over_embree_time"]) for r in by[(m, f)]) for m in meshes for f in floors}
-    build = {m: median(float(r["grid_build_s"]) / float(r["embree_build_s"]) for r in by[(m, "0")]) for m in meshes}
-    body = []
-    for m in meshes:
-        r0 = by[(m, "0")][0]
-        body.append([m, f"{int(r0['primitives']):,}"] + [f"{ratio[(m, f)]:.2f}" for f in floors] + [
-            f"{float(r0['tests_per_ray']):.1f}", f"{build[m]:.2f}",
-            f"{int(r0['grid_bytes']) / int(r0['embree_bytes']):.2f}",
-            f"{sum(int(by[(m, f)][0]['mismatches']) for f in floors)}"])
-    body.sort(key=lambda b: float(b[2]))
-    alone = [ratio[(m, "0")] for m in meshes]
-    stadium = [ratio[(m, f)] for m in meshes for f in floors[1:]]
-    worst = max(ratio.items(), key=lambda kv: kv[1])
-    rays = sum(int(by[(m, f)][0]["validate_rays"]) for m in meshes for f in floors)
-    mismatches = sum(int(by[(m, f)][0]["mismatches"]) for m in meshes for f in floors)
-    tests_over = [m for m in meshes if float(by[(m, "0")][0]["tests_per_ray"]) > 30]
-    slower_build = [m for m in meshes if build[m] > 1.0]
-    floor_name = {"0": "alone", "100": "on a 100x floor", "1000": "on a 1000x floor"}
-    tri = [int(by[(m, "0")][0]["primitives"]) for m in meshes]
+    c = CgalMeshes(name)
+    body = sorted((c.row(m) for m in c.meshes), key=lambda b: float(b[2]))
+    tri = [int(c.first(m)["primitives"]) for m in c.meshes]
     return "\n".join([
         "## More meshes from Debian's CGAL data",
         "",
-        f"The same measures but svm's on {len(meshes)} more meshes of `libcgal-demo` ({min(tri):,} to "
+        f"The same measures but svm's on {len(c.meshes)} more meshes of `libcgal-demo` ({min(tri):,} to "
         f"{max(tri):,} triangles: CAD parts, scans and modelled meshes): " + src.describe(name),
         "",
-        table(["mesh", "triangles", "grid / Embree", "on a 100x floor", "on a 1000x floor", "tests per ray",
-               "grid / Embree build time", "grid / Embree memory", "validate mismatches"], body),
+        table(c.HEADER, body),
         "",
-        f"- Grid / Embree, one thread, the same rays (the median of the rounds): {sum(x <= 1.3 for x in alone)} of "
-        f"{len(alone)} meshes alone and {sum(x <= 1.3 for x in stadium)} of {len(stadium)} stadium variants within "
-        f"1.3x; geometric mean {geometric_mean(alone):.2f} alone, {geometric_mean(stadium):.2f} on the floors; the "
-        f"slowest against Embree is {worst[0][0]} {floor_name[worst[0][1]]}, at {worst[1]:.2f}x.",
-        f"- Tests per ray above 30: {', '.join(tests_over) if tests_over else 'none'}. Grid builds slower than "
-        f"Embree's: {', '.join(slower_build) if slower_build else 'none'}.",
-        f"- `validate` found {mismatches} mismatches in {rays:,} rays over the {len(meshes) * len(floors)} scenes.",
-    ])
+    ] + c.summary())
 
 
 def section_embree_queries(src):
