@@ -129,7 +129,7 @@ MachineDescription load_machine(const std::string& name) {
       f.per_hop_s = get("per_hop_s", 0);
       f.service_s = get("service_s", 0);
       f.fault_s = get("fault_s", -1);
-      f.cache_access_s = get("cache_access_s", 0);
+      f.cache_access_s = get("cache_access_s", -1);
       f.send_overhead_s = get("send_overhead_s", 0);
       f.poll_s = get("poll_s", 0);
       f.seconds_per_ray = get("seconds_per_ray", 0);

@@ -39,7 +39,7 @@ namespace raynode::apps {
 struct NetworkFigures {
   double latency_s = 0, per_byte_s = 0, per_hop_s = 0, service_s = 0, send_overhead_s = 0, poll_s = 0;
   double fault_s = -1;          ///< < 0: the cost model's
-  double cache_access_s = 0;    ///< nodes::NetworkModel::cache_access_s
+  double cache_access_s = -1;   ///< nodes::NetworkModel::cache_access_s; < 0: the cost model's
   bool contention = false;      ///< links held while a message streams (nodes/links.h)
   double seconds_per_ray = 0;   ///< > 0: scale every cost by (this host's seconds per ray) / this
 };

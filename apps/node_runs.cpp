@@ -244,7 +244,7 @@ NodeRunSpec make_node_run_spec(const NodeRunOptions& o) {
     m.network.per_hop_s = scale * f.per_hop_s;
     m.network.service_s = scale * f.service_s;
     m.network.fault_s = f.fault_s < 0 ? -1.0 : scale * f.fault_s;
-    m.network.cache_access_s = scale * f.cache_access_s;
+    m.network.cache_access_s = f.cache_access_s < 0 ? -1.0 : scale * f.cache_access_s;
     m.network.send_overhead_s = scale * f.send_overhead_s;
     m.network.poll_s = scale * f.poll_s;
     m.network.contention = f.contention;

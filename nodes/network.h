@@ -86,12 +86,12 @@ struct NetworkModel {
   /// node's cache (not a home page), virtual seconds: a shared virtual
   /// memory in software looks the page up and updates its LRU recency on
   /// every such access, which home pages and one node's run never pay.
-  /// > 0 replaces the cost model's figure (CostFeature::kCachePageAccess,
-  /// 0 unless a machine description's cost_model sets it). 0 in every
-  /// preset: no source gives the iPSC/2 svm's figure (docs/results.md,
-  /// "Each access to a cached page", sweeps it); a machine description may
-  /// set it.
-  double cache_access_s = 0;
+  /// >= 0 replaces the cost model's figure (CostFeature::kCachePageAccess,
+  /// 0 unless a machine description's cost_model sets it); < 0: the cost
+  /// model's, as for fault_s. Unset (< 0) in every preset: no source gives
+  /// the iPSC/2 svm's figure (docs/results.md, "Each access to a cached
+  /// page", sweeps it); a machine description may set it.
+  double cache_access_s = -1;
   /// Link contention (links.h): a message holds its route's links while it
   /// streams, and waits for a link another message holds. Off: links are
   /// never busy (a message costs message_time whatever else is sent).

@@ -280,7 +280,7 @@ SvmResult render_svm(const core::Database& db, const core::Grid& grid, const Svm
   // (NetworkModel::cache_access_s) replaces the cost model's figure.
   core::CostModel cost_model = m.cost_model;
   if (m.network.fault_s >= 0) cost_model.unit_s[std::size_t(core::CostFeature::kPageFault)] = m.network.fault_s;
-  if (m.network.cache_access_s > 0)
+  if (m.network.cache_access_s >= 0)
     cost_model.unit_s[std::size_t(core::CostFeature::kCachePageAccess)] = m.network.cache_access_s;
   if (params.fetch_by_get && !(m.transport && m.transport->reads_remote()))
     throw std::invalid_argument("--page-fetch get reads home pages one-sidedly: it needs a transport with "

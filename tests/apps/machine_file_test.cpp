@@ -95,6 +95,15 @@ TEST_CASE("machine file: a network's cache_access_s reaches the machine, scaled 
   const apps::NodeRunSpec spec = apps::make_node_run_spec(o);
   CHECK(spec.machine.network.cache_access_s == doctest::Approx(2e-9));
   CHECK(spec.machine.network.latency_s == doctest::Approx(1e-7));
+  // Left out, the figure stays unset (the cost model's), not 0 scaled.
+  const std::string unset_path =
+      description("cache_unset", R"({"clock": "model", "network": {"latency_s": 1e-3, "seconds_per_ray": 1e-2}})");
+  const apps::MachineDescription unset = apps::load_machine(unset_path);
+  std::remove(unset_path.c_str());
+  REQUIRE(unset.network_figures);
+  CHECK(unset.network_figures->cache_access_s < 0);
+  o.network_figures = unset.network_figures;
+  CHECK(apps::make_node_run_spec(o).machine.network.cache_access_s < 0);
   CHECK(error_of(description("cache_negative", R"({"network": {"cache_access_s": -1}})"))
             .find("\"network.cache_access_s\" must be a finite number of seconds >= 0") != std::string::npos);
 }
