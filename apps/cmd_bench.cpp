@@ -43,6 +43,9 @@ struct BenchOptions {
 struct RaySet {
   std::vector<core::Ray> closest;  // primary + mirror rays
   std::vector<core::Ray> shadow;   // any-hit rays
+  // The triangle each ray leaves, for the grid's queries (intersect_closest's
+  // origin_triangle; kNoPrimitive for eye rays), as the tracer passes it.
+  std::vector<std::uint32_t> closest_origin, shadow_origin;
 };
 
 RaySet make_rays(const core::Database& db, const core::Grid& grid, int w, int h) {
@@ -51,24 +54,27 @@ RaySet make_rays(const core::Database& db, const core::Grid& grid, int w, int h)
   const core::DirectView dv(db, grid);
   core::TraversalScratch scratch;
   std::vector<core::Ray> mirror;
+  std::vector<std::uint32_t> mirror_origin;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       const core::Ray r = cam.ray_through(float(x) + 0.5f, float(y) + 0.5f);
       rs.closest.push_back(r);
+      rs.closest_origin.push_back(core::kNoPrimitive);
       core::Hit hit;
       if (!core::intersect_closest(dv, r, hit, scratch)) continue;
       const core::Primitive& prim = db.primitives[hit.primitive];
-      const core::HitPoint hp = core::hit_point(prim, r, hit);  // spawned as the tracer spawns them
-      core::Vec3 n = hp.normal;
-      if (core::dot(n, r.direction) > 0) n = -n;
-      const core::Vec3 o = core::offset_ray_origin(hp, n);
+      // Spawned as the tracer spawns them (surface_frame, shade_hit).
+      const core::SurfaceFrame f = core::surface_frame(dv, prim, r, hit);
       for (const core::Light& l : db.lights) {
-        const core::Vec3 to = l.position - o;
-        rs.shadow.push_back(core::Ray{o, to, 0.0f, 1.0f});
+        rs.shadow.push_back(core::Ray{f.above, l.position - f.above, 0.0f, 1.0f});
+        rs.shadow_origin.push_back(f.leaving(rs.shadow.back()));
       }
-      mirror.push_back(core::Ray{o, r.direction - n * (2.0f * core::dot(r.direction, n)), 0.0f, core::kInfinity});
+      const core::Vec3& n = f.nf;
+      mirror.push_back(core::Ray{f.above, r.direction - n * (2.0f * core::dot(r.direction, n)), 0.0f, core::kInfinity});
+      mirror_origin.push_back(f.leaving(mirror.back()));
     }
   rs.closest.insert(rs.closest.end(), mirror.begin(), mirror.end());
+  rs.closest_origin.insert(rs.closest_origin.end(), mirror_origin.begin(), mirror_origin.end());
   return rs;
 }
 
@@ -138,8 +144,10 @@ void run_bench(const BenchOptions& o) {
       scratch.stats = {};
       grid_s = std::min(grid_s, best_seconds(1, [&] {
                           core::Hit h;
-                          for (const core::Ray& r : rs.closest) sink += core::intersect_closest(dv, r, h, scratch);
-                          for (const core::Ray& r : rs.shadow) sink += core::intersect_any(dv, r, scratch);
+                          for (std::size_t i = 0; i < rs.closest.size(); ++i)
+                            sink += core::intersect_closest(dv, rs.closest[i], h, scratch, rs.closest_origin[i]);
+                          for (std::size_t i = 0; i < rs.shadow.size(); ++i)
+                            sink += core::intersect_any(dv, rs.shadow[i], scratch, rs.shadow_origin[i]);
                         }));
       embree_s = std::min(embree_s, best_seconds(1, [&] {
                             core::Hit h;

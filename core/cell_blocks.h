@@ -253,11 +253,13 @@ template <int KX, int KY, int KZ>
 /// Tests a packed cell's triangles in list order against `ray`; on a hit
 /// nearer than hit.t, or as near with a lower id (tie_bound; hit_primitive
 /// 0 while there is no hit), updates `hit` (closest) and returns true. `any`: stop
-/// at the first hit in (ray.tmin, hit.t). Adds the triangles tested to
-/// `triangle_tests`.
+/// at the first hit in (ray.tmin, hit.t). The lane of `origin_triangle`
+/// (the triangle the ray leaves, or kNoPrimitive: intersect_closest) is
+/// no candidate. Adds the triangles tested to `triangle_tests`.
 template <int KX, int KY, int KZ, bool kAny>
 [[gnu::always_inline]] inline bool intersect_cell_blocks(const CellBlockSpan& cell, const Ray& ray,
-                                                        const WatertightRay& w, float& hit_t, float& hit_u,
+                                                        const WatertightRay& w, std::uint32_t origin_triangle,
+                                                        float& hit_t, float& hit_u,
                                                         float& hit_v, std::uint32_t& hit_primitive,
                                                         std::uint64_t& triangle_tests) {
   triangle_tests += cell.triangles;
@@ -270,6 +272,10 @@ template <int KX, int KY, int KZ, bool kAny>
     std::uint32_t bits = block_candidates<KX, KY, KZ>(b, o, w, bl);
     if (left < kBlockLanes) bits &= (1u << left) - 1;
     if (!bits) [[likely]] continue;
+    // The surface a secondary ray starts on is the candidate of most blocks
+    // that have one: dropped by id, the block needs no finish.
+    bits &= ~lane_bits(*reinterpret_cast<const LaneI*>(b.primitive) == std::int32_t(origin_triangle));
+    if (!bits) continue;
     // Candidates (rare): finished eight at once; the few lanes left are hits
     // or need a scalar step.
     BlockFinish f;

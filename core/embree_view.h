@@ -60,8 +60,10 @@ class EmbreeView {
 /// Nearest hit of `ray` in (ray.tmin, ray.tmax) through Embree, with t, u, v
 /// recomputed by raynode's own primitive test (see the file comment).
 /// Returns hit.found(); on a miss `hit` is Hit{}. Counts one ray in
-/// scratch.stats. Precondition: is_valid_ray(ray).
-inline bool intersect_closest(const EmbreeView& view, const Ray& ray, Hit& hit, TraversalScratch& scratch) {
+/// scratch.stats. Precondition: is_valid_ray(ray). The triangle the ray
+/// leaves is Embree's to test (the answer is the same: intersect_closest).
+inline bool intersect_closest(const EmbreeView& view, const Ray& ray, Hit& hit, TraversalScratch& scratch,
+                              std::uint32_t /*origin_triangle*/ = kNoPrimitive) {
   ++scratch.stats.rays;
   if (!view.scene().intersect_closest(ray, hit)) {
     hit = Hit{};
@@ -83,8 +85,10 @@ inline bool intersect_closest(const EmbreeView& view, const Ray& ray, Hit& hit, 
 }
 
 /// True if anything lies on `ray` in (ray.tmin, ray.tmax), through Embree's
-/// occlusion query. Counts one ray in scratch.stats.
-inline bool intersect_any(const EmbreeView& view, const Ray& ray, TraversalScratch& scratch) {
+/// occlusion query. Counts one ray in scratch.stats. The triangle the ray
+/// leaves is Embree's to test.
+inline bool intersect_any(const EmbreeView& view, const Ray& ray, TraversalScratch& scratch,
+                          std::uint32_t /*origin_triangle*/ = kNoPrimitive) {
   ++scratch.stats.rays;
   return view.scene().intersect_any(ray);
 }

@@ -269,7 +269,7 @@ RenderResult render(const Database& db, const Grid& grid, const RenderParams& pa
   RAYNODE_TRAVERSAL_INSTANCES(EXTERN, V);                                                                    \
   EXTERN template SurfaceFrame surface_frame<V>(const V&, const Primitive&, const Ray&, const Hit&);         \
   EXTERN template Vec3 trace_ray<V>(const V&, const ShadingContext&, const Ray&, int, float, ShadingScratch&, \
-                                    FirstHit*);                                                              \
+                                    FirstHit*, std::uint32_t);                                               \
   EXTERN template PixelResult render_pixel<V>(const V&, const ShadingContext&, const Camera&, int, int, int,  \
                                               bool, ShadingScratch&)
 

@@ -181,6 +181,21 @@ struct SurfaceFrame {
   bool front = true; ///< the ray arrives at the front side (dot(unflipped normal, d) < 0)
   Vec3 above;        ///< origin of rays leaving on nf's side (shadow, reflected), world units
   Vec3 below;        ///< origin of rays leaving on the other side (refracted)
+  /// The hit triangle's id when the hit is on a triangle whose plane has a
+  /// normal there, else kNoPrimitive (spheres, cones: curved).
+  std::uint32_t triangle = kNoPrimitive;
+
+  /// intersect_closest's origin_triangle for `ray`, a ray spawned here:
+  /// `triangle` when `ray` starts at `above` or `below` and its direction
+  /// goes clearly to that side of the plane (the cosine to nf beyond
+  /// 2^-10, far above nf's rounding): offset_ray_origin put the origin
+  /// strictly on that side, so the plane lies behind it and the triangle
+  /// cannot be met. kNoPrimitive otherwise (a shadow ray to a light behind
+  /// the surface crosses it).
+  std::uint32_t leaving(const Ray& ray) const {
+    const float side = ray.origin == above ? 1.0f : ray.origin == below ? -1.0f : 0.0f;
+    return side * dot(ray.direction, nf) > 0x1p-10f * length(ray.direction) ? triangle : kNoPrimitive;
+  }
 };
 
 /// Frame of the closest hit `hit` of `ray` (hit.found()). `prim` is the hit
@@ -200,6 +215,7 @@ SurfaceFrame surface_frame(const View& view, const Primitive& prim, const Ray& r
   f.nf = f.front ? ng : -ng;
   f.above = offset_ray_origin(hp, f.nf);
   f.below = offset_ray_origin(hp, -f.nf);
+  if (prim.kind == PrimitiveKind::kTriangle && dot(hp.normal, hp.normal) > 0.0f) f.triangle = hit.primitive;
   // Shading normal, flipped together with the geometric one.
   f.ns = f.nf;
   if (prim.kind == PrimitiveKind::kTriangle && prim.normals != kNoNormals) {
@@ -342,14 +358,16 @@ void shade_hit(const ShadingContext& ctx, const Material& m, const SurfaceFrame&
 /// receives the distance, shading normal and shape index of the first hit
 /// (FirstHit's defaults on a miss). The database view may be any view of
 /// traverse.h, or one with its own intersect_closest / intersect_any
-/// overloads (embree_view.h). Owner thread of `scratch` only.
+/// overloads (embree_view.h). `origin_triangle`: the triangle `ray` leaves
+/// (SurfaceFrame::leaving), or kNoPrimitive. Owner thread of `scratch` only.
 template <class View>
 Vec3 trace_ray(const View& view, const ShadingContext& ctx, const Ray& ray, int depth, float weight,
-               ShadingScratch& scratch, FirstHit* first_hit = nullptr) {
+               ShadingScratch& scratch, FirstHit* first_hit = nullptr,
+               std::uint32_t origin_triangle = kNoPrimitive) {
   // --timeout reaches inside a pixel, however deep its ray tree (core/stop.h).
   throw_if_stopped("tracing rays");
   Hit hit;
-  if (!intersect_closest(view, ray, hit, scratch.traversal)) {
+  if (!intersect_closest(view, ray, hit, scratch.traversal, origin_triangle)) {
     if (first_hit) *first_hit = FirstHit{};
     return ctx.background;
   }
@@ -363,12 +381,12 @@ Vec3 trace_ray(const View& view, const ShadingContext& ctx, const Ray& ray, int 
   shade_hit(
       ctx, m, f, depth, weight, scratch.stats,
       [&](const Ray& shadow, auto&& light_term, bool highlight_skipped) {
-        if (intersect_any(view, shadow, scratch.traversal)) return;
+        if (intersect_any(view, shadow, scratch.traversal, f.leaving(shadow))) return;
         if (highlight_skipped) ++scratch.stats.skipped.highlight_marker;
         color += light_term();
       },
       [&](ChildKind kind, const Ray& r, float w) {
-        color += trace_ray(view, ctx, r, depth + 1, w, scratch) *
+        color += trace_ray(view, ctx, r, depth + 1, w, scratch, nullptr, f.leaving(r)) *
                  (kind == ChildKind::kReflected ? m.ks : m.transmittance);
       });
   return color;

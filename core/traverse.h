@@ -794,6 +794,9 @@ struct CellVisit {
   const TriangleRayLanes* lanes;
   Mailbox::Probe mailbox;
   Hit hit;
+  /// The triangle the ray leaves, or kNoPrimitive: never tested (see
+  /// intersect_closest).
+  std::uint32_t origin_triangle = kNoPrimitive;
   bool found = false;
   TraversalStats stats{};
 
@@ -801,6 +804,7 @@ struct CellVisit {
     ++stats.cells_visited;
     const auto listed = [&](std::uint32_t id) [[gnu::always_inline]] {
       if (kAny && found) return;
+      if (id == origin_triangle) return;
       if (mailbox.seen_or_insert(id)) {
         ++stats.mailbox_skips;
         return;
@@ -817,8 +821,8 @@ struct CellVisit {
           found |= intersect_cell_spheres<kAny>(cb, *ray, mailbox, hit.t, hit.u, hit.v, hit.primitive,
                                                 stats.sphere_tests, stats.mailbox_skips);
         else
-          found |= intersect_cell_blocks<KX, KY, KZ, kAny>(cb, *ray, *w, hit.t, hit.u, hit.v, hit.primitive,
-                                                          stats.triangle_tests);
+          found |= intersect_cell_blocks<KX, KY, KZ, kAny>(cb, *ray, *w, origin_triangle, hit.t, hit.u, hit.v,
+                                                          hit.primitive, stats.triangle_tests);
       });
     } else {
       empty = view->for_each_in_cell(cell, listed);
@@ -843,9 +847,9 @@ struct CellVisit {
 
 template <int KX, int KY, int KZ, class View>
 [[gnu::flatten]] inline bool intersect_closest_axes(const View& view, const Ray& ray, const WatertightRay& w, Hit& hit_out,
-                                   TraversalScratch& scratch) {
+                                   TraversalScratch& scratch, std::uint32_t origin_triangle) {
   const TriangleRayLanes lanes(ray, w);
-  CellVisit<KX, KY, KZ, View, false> visit{&view, &ray, &w, &lanes, scratch.mailbox.probe(), hit_out};
+  CellVisit<KX, KY, KZ, View, false> visit{&view, &ray, &w, &lanes, scratch.mailbox.probe(), hit_out, origin_triangle};
   visit.hit.primitive = 0;  // no hit yet: no id is below it (tie_bound)
   walk_cells(view, ray, visit);
   scratch.stats += visit.stats;
@@ -854,11 +858,12 @@ template <int KX, int KY, int KZ, class View>
 }
 
 template <int KX, int KY, int KZ, class View>
-[[gnu::flatten]] inline bool intersect_any_axes(const View& view, const Ray& ray, const WatertightRay& w, TraversalScratch& scratch) {
+[[gnu::flatten]] inline bool intersect_any_axes(const View& view, const Ray& ray, const WatertightRay& w, TraversalScratch& scratch,
+                                               std::uint32_t origin_triangle) {
   const TriangleRayLanes lanes(ray, w);
   Hit hit;
   hit.t = ray.tmax;
-  CellVisit<KX, KY, KZ, View, true> visit{&view, &ray, &w, &lanes, scratch.mailbox.probe(), hit};
+  CellVisit<KX, KY, KZ, View, true> visit{&view, &ray, &w, &lanes, scratch.mailbox.probe(), hit, origin_triangle};
   walk_cells(view, ray, visit);
   scratch.stats += visit.stats;
   return visit.found;
@@ -871,13 +876,14 @@ namespace detail {
 /// intersect_closest of one piece of a ray, in its own parameter (no
 /// frame): the walk and tests, inlined.
 template <class View>
-[[gnu::always_inline]] inline bool closest_piece(const View& view, const Ray& ray, Hit& hit, TraversalScratch& scratch) {
+[[gnu::always_inline]] inline bool closest_piece(const View& view, const Ray& ray, Hit& hit, TraversalScratch& scratch,
+                                                 std::uint32_t origin_triangle) {
   hit = Hit{};
   hit.t = ray.tmax;
   const WatertightRay w(ray);
   scratch.mailbox.next_ray();
   const bool found = with_axes(w, [&]<int KX, int KY, int KZ>() {
-    return intersect_closest_axes<KX, KY, KZ>(view, ray, w, hit, scratch);
+    return intersect_closest_axes<KX, KY, KZ>(view, ray, w, hit, scratch, origin_triangle);
   });
   if (!found) hit = Hit{};
   return found;
@@ -885,22 +891,26 @@ template <class View>
 
 /// intersect_any of one piece of a ray (no frame), inlined.
 template <class View>
-[[gnu::always_inline]] inline bool any_piece(const View& view, const Ray& ray, TraversalScratch& scratch) {
+[[gnu::always_inline]] inline bool any_piece(const View& view, const Ray& ray, TraversalScratch& scratch,
+                                             std::uint32_t origin_triangle) {
   const WatertightRay w(ray);
   scratch.mailbox.next_ray();
-  return with_axes(w, [&]<int KX, int KY, int KZ>() { return intersect_any_axes<KX, KY, KZ>(view, ray, w, scratch); });
+  return with_axes(w, [&]<int KX, int KY, int KZ>() { return intersect_any_axes<KX, KY, KZ>(view, ray, w, scratch, origin_triangle);
+  });
 }
 
 /// closest_piece, out of line: the pieces of a ray split by the frame.
 template <class View>
-[[gnu::noinline]] bool closest_piece_outlined(const View& view, const Ray& ray, Hit& hit, TraversalScratch& scratch) {
-  return closest_piece(view, ray, hit, scratch);
+[[gnu::noinline]] bool closest_piece_outlined(const View& view, const Ray& ray, Hit& hit, TraversalScratch& scratch,
+                                                std::uint32_t origin_triangle) {
+  return closest_piece(view, ray, hit, scratch, origin_triangle);
 }
 
 /// any_piece, out of line.
 template <class View>
-[[gnu::noinline]] bool any_piece_outlined(const View& view, const Ray& ray, TraversalScratch& scratch) {
-  return any_piece(view, ray, scratch);
+[[gnu::noinline]] bool any_piece_outlined(const View& view, const Ray& ray, TraversalScratch& scratch,
+                                            std::uint32_t origin_triangle) {
+  return any_piece(view, ray, scratch, origin_triangle);
 }
 
 }  // namespace detail
@@ -912,28 +922,38 @@ template <class View>
 /// stops as soon as the best hit lies within the current cell. Returns
 /// hit.found(). Precondition: is_valid_ray(ray) (callers reject NaN rays
 /// before).
+///
+/// `origin_triangle`: kNoPrimitive, or the triangle a secondary ray leaves
+/// (leaving_triangle, spawn.h: spawned from a hit on it, on the side of its
+/// plane its direction clearly goes), which is then not tested. Its plane
+/// lies behind the ray's origin, so the full test refuses it too: the
+/// answer is the same either way, without the finish of the candidate that
+/// most secondary rays' first cell holds (the surface they start on).
 template <class View>
-bool intersect_closest(const View& view, const Ray& ray, Hit& hit, TraversalScratch& scratch) {
+bool intersect_closest(const View& view, const Ray& ray, Hit& hit, TraversalScratch& scratch,
+                       std::uint32_t origin_triangle = kNoPrimitive) {
   ++scratch.stats.rays;
   const float frame = view.grid_info().frame_magnitude;
   if (origin_in_frame(frame, ray)) [[likely]]
-    return detail::closest_piece(view, ray, hit, scratch);
+    return detail::closest_piece(view, ray, hit, scratch, origin_triangle);
   return closest_in_frame(frame, ray, hit, [&](const Ray& piece, Hit& h) {
-    return detail::closest_piece_outlined(view, piece, h, scratch);
+    return detail::closest_piece_outlined(view, piece, h, scratch, origin_triangle);
   });
 }
 
 /// True if anything lies on `ray` in (ray.tmin, ray.tmax): the shadow-ray
 /// query, in the grid's tracing frame (any_in_frame). Stops at the first
-/// hit found.
+/// hit found. `origin_triangle` as for intersect_closest.
 template <class View>
-bool intersect_any(const View& view, const Ray& ray, TraversalScratch& scratch) {
+bool intersect_any(const View& view, const Ray& ray, TraversalScratch& scratch,
+                   std::uint32_t origin_triangle = kNoPrimitive) {
   ++scratch.stats.rays;
   const float frame = view.grid_info().frame_magnitude;
   if (origin_in_frame(frame, ray)) [[likely]]
-    return detail::any_piece(view, ray, scratch);
-  return any_in_frame(frame, ray,
-                      [&](const Ray& piece) { return detail::any_piece_outlined(view, piece, scratch); });
+    return detail::any_piece(view, ray, scratch, origin_triangle);
+  return any_in_frame(frame, ray, [&](const Ray& piece) {
+    return detail::any_piece_outlined(view, piece, scratch, origin_triangle);
+  });
 }
 
 /// The traversal's entry points over one view type `V`, for explicit
@@ -942,7 +962,7 @@ bool intersect_any(const View& view, const Ray& ray, TraversalScratch& scratch) 
 /// compiled copy; `RAYNODE_TRAVERSAL_INSTANCES(, V)` in one .cpp compiles it.
 /// The walks behind them are most of the build's compile time.
 #define RAYNODE_TRAVERSAL_INSTANCES(EXTERN, V)                                                \
-  EXTERN template bool intersect_closest<V>(const V&, const Ray&, Hit&, TraversalScratch&); \
-  EXTERN template bool intersect_any<V>(const V&, const Ray&, TraversalScratch&)
+  EXTERN template bool intersect_closest<V>(const V&, const Ray&, Hit&, TraversalScratch&, std::uint32_t); \
+  EXTERN template bool intersect_any<V>(const V&, const Ray&, TraversalScratch&, std::uint32_t)
 
 }  // namespace raynode::core

@@ -12,6 +12,8 @@
 #include <cstdint>
 #include <type_traits>
 
+#include "core/database.h"
+
 namespace raynode::dataflow {
 
 /// Kinds of ray, as counted (the paper's primary, shadow, reflected, refracted).
@@ -44,7 +46,10 @@ struct RayMsg {
   std::uint8_t depth;  ///< ray level, eye ray = 1
   std::uint8_t flags;
   std::uint8_t reserved0 = 0;
-  std::uint32_t reserved1 = 0;  ///< pads the message to 64 bytes
+  /// The triangle the ray leaves (core::SurfaceFrame::leaving), by its id in
+  /// the region that spawned the ray, whose query skips it; core::kNoPrimitive
+  /// for eye rays and once the ray is in another region (ids are local).
+  std::uint32_t origin_triangle = core::kNoPrimitive;
 };
 static_assert(std::is_trivially_copyable_v<RayMsg>);
 static_assert(sizeof(RayMsg) == 64);

@@ -217,8 +217,9 @@ class NodeTracer {
   /// A new ray from `ray.origin`: clipped to the scene box, then traced here
   /// or sent to the region where it enters the scene.
   void start_ray(const core::Ray& ray, RayKind kind, std::uint32_t pixel, int depth, float weight,
-                 const core::Vec3& color, std::uint8_t flags) {
+                 const core::Vec3& color, std::uint8_t flags, std::uint32_t origin_triangle = core::kNoPrimitive) {
     RayMsg m;
+    m.origin_triangle = origin_triangle;
     m.origin[0] = ray.origin.x, m.origin[1] = ray.origin.y, m.origin[2] = ray.origin.z;
     m.direction[0] = ray.direction.x, m.direction[1] = ray.direction.y, m.direction[2] = ray.direction.z;
     m.weight = weight;
@@ -237,6 +238,7 @@ class NodeTracer {
     m.t_enter = t0;
     m.tmax = t1;
     m.region = map_.region_at(ScreenRay::of(s_.frame, ray.origin, ray.direction), t0);
+    if (m.region != me_) m.origin_triangle = core::kNoPrimitive;  // a local id of this region
     route(m);
   }
 
@@ -300,10 +302,10 @@ class NodeTracer {
     const core::Ray q{o, d, tmin, last ? m.tmax : t_exit};
     core::TraversalScratch& tr = s_.scratch->traversal;
     if (m.kind == RayKind::kShadow) {
-      if (core::intersect_any(view_, q, tr)) return;  // blocked
+      if (core::intersect_any(view_, q, tr, m.origin_triangle)) return;  // blocked
     } else {
       core::Hit hit;
-      if (core::intersect_closest(view_, q, hit, tr)) {
+      if (core::intersect_closest(view_, q, hit, tr, m.origin_triangle)) {
         shade(m, core::Ray{o, d, 0.0f, core::kInfinity}, hit);
         return;
       }
@@ -315,6 +317,7 @@ class NodeTracer {
     if (next == me_) throw std::logic_error(fmt::format("node {}: a ray leaves region {} into itself", me_, me_));
     m.t_enter = t_exit;
     m.region = next;
+    m.origin_triangle = core::kNoPrimitive;  // a local id of this region
     route(m);
   }
 
@@ -331,11 +334,11 @@ class NodeTracer {
         shading_, mat, f, m.depth, m.weight, st_,
         [&](const core::Ray& shadow, auto&& light_term, bool highlight_skipped) {
           start_ray(shadow, RayKind::kShadow, m.pixel, m.depth, m.weight, light_term() * m.weight,
-                    highlight_skipped ? kRayHighlightSkip : std::uint8_t(0));
+                    highlight_skipped ? kRayHighlightSkip : std::uint8_t(0), f.leaving(shadow));
         },
         [&](core::ChildKind kind, const core::Ray& r, float w) {
           start_ray(r, kind == core::ChildKind::kReflected ? RayKind::kReflected : RayKind::kRefracted, m.pixel,
-                    m.depth + 1, w, core::Vec3{}, 0);
+                    m.depth + 1, w, core::Vec3{}, 0, f.leaving(r));
         });
   }
 
