@@ -1247,8 +1247,8 @@ def section_robust_cost(src):
          "grid time, robust / epsilon", "Embree time, robust / epsilon", "tests per ray, epsilon / robust"], body,
         ["- Each build's grid time is taken over Embree's on the same run's rays, which cancels the machine's "
          "speed between runs. The two builds' secondary rays start at different points (an error bound against a fixed offset).",
-         "- The ratio is above 3% of the epsilon tracer's on " + (", ".join(over) if over else "no scene") +
-         "; the grid's own time is above 3% of it on " + (", ".join(slower) if slower else "no scene") + ". The "
+         "- The ratio is more than 3% above the epsilon tracer's on " + (", ".join(over) if over else "no scene") +
+         ", the grid's own time on " + (", ".join(slower) if slower else "none") + ". The "
          "Embree column is the oracle's side of the same runs: the benchmark has since called Embree's queries "
          "without going through the library's entry points (\"The grid against Embree, Embree's queries without "
          "library calls\"), so Embree's time fell and every ratio rose by that much, whatever the grid did.",
