@@ -895,7 +895,8 @@ template <class View>
                                              std::uint32_t origin_triangle) {
   const WatertightRay w(ray);
   scratch.mailbox.next_ray();
-  return with_axes(w, [&]<int KX, int KY, int KZ>() { return intersect_any_axes<KX, KY, KZ>(view, ray, w, scratch, origin_triangle);
+  return with_axes(w, [&]<int KX, int KY, int KZ>() {
+    return intersect_any_axes<KX, KY, KZ>(view, ray, w, scratch, origin_triangle);
   });
 }
 
@@ -924,11 +925,12 @@ template <class View>
 /// before).
 ///
 /// `origin_triangle`: kNoPrimitive, or the triangle a secondary ray leaves
-/// (leaving_triangle, spawn.h: spawned from a hit on it, on the side of its
-/// plane its direction clearly goes), which is then not tested. Its plane
-/// lies behind the ray's origin, so the full test refuses it too: the
-/// answer is the same either way, without the finish of the candidate that
-/// most secondary rays' first cell holds (the surface they start on).
+/// (SurfaceFrame::leaving, shade.h: spawned from a hit on it, to the side
+/// of its plane its direction clearly goes), which is then not tested, in
+/// every piece of the ray. Its plane lies behind the ray's origin, so the
+/// full test refuses it too: the answer is the same either way, without
+/// the finish of the candidate that most secondary rays' first cells hold
+/// (the surface they start on).
 template <class View>
 bool intersect_closest(const View& view, const Ray& ray, Hit& hit, TraversalScratch& scratch,
                        std::uint32_t origin_triangle = kNoPrimitive) {
