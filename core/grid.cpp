@@ -637,24 +637,24 @@ class AdaptiveBuilder {
     std::vector<Child> children;
     if (level < std::uint32_t(params_.max_depth))
       for (std::uint32_t c = 0; c < ncells; ++c)
-        if (heavy_enough(std::span(local.cell_primitives)
-                             .subspan(local.cell_start[c], local.cell_start[c + 1] - local.cell_start[c])))
-          children.push_back({c, {}, {}, {}});
+        if (may_be_heavy(local.cell_start[c + 1] - local.cell_start[c])) children.push_back({c, {}, {}, {}});
     std::vector<char> refines(children.size(), 0);
     auto decide = [&](std::size_t i) {
       Child& child = children[i];
       const std::uint32_t b = local.cell_start[child.cell], e = local.cell_start[child.cell + 1];
       const std::span<const std::uint32_t> list = std::span(local.cell_primitives).subspan(b, e - b);
+      const double weight = weighted_count(list);
+      if (weight < params_.sub_grid_min) return;  // too light to be offered a sub-grid
       const bool split =
           split_large(cell_box(info, child.cell), list, kLargeShare * double(list.size()), child.small, child.large);
-      bool refine = make_sub_grid(info, child.cell, split ? std::span<const std::uint32_t>(child.small) : list,
-                                  child.info);
+      bool refine = split ? make_sub_grid(info, child.cell, child.small, weighted_count(child.small), child.info)
+                          : make_sub_grid(info, child.cell, list, weight, child.info);
       bool whole = !split;  // the sub-grid, if any, holds the whole list
       if (!refine && split) {  // the split did not pay: all in the sub-grid, if that does
         child.small.clear();
         child.large.clear();
         whole = true;
-        refine = make_sub_grid(info, child.cell, list, child.info);
+        refine = make_sub_grid(info, child.cell, list, weight, child.info);
       }
       if (refine && whole) child.small.assign(list.begin(), list.end());
       refines[i] = refine;
@@ -710,12 +710,12 @@ class AdaptiveBuilder {
     return sum;
   }
 
-  // Whether a cell listing `ids` weighs enough to be offered a sub-grid
-  // (GridParams::sub_grid_min); the sum is skipped where the count alone
-  // decides.
-  bool heavy_enough(std::span<const std::uint32_t> ids) const {
-    if (ids.empty() || double(ids.size()) * max_weight_ < params_.sub_grid_min) return false;
-    return weighted_count(ids) >= params_.sub_grid_min;
+  // Whether a cell listing `count` primitives may weigh enough to be
+  // offered a sub-grid (GridParams::sub_grid_min), its primitives all
+  // weighing the most any does; the weighted sum itself is taken where the
+  // cell's sub-grid is decided, in parallel.
+  bool may_be_heavy(std::uint32_t count) const {
+    return count > 0 && double(count) * max_weight_ >= params_.sub_grid_min;
   }
 
   // Splits `list`, the primitives of box `cell`, into those large in it
@@ -767,13 +767,14 @@ class AdaptiveBuilder {
     return info.cell_bounds(x, y, z);
   }
 
-  // The sub-grid cell c of `info` would hold over `list`, if one pays
-  // (header comment: the cost model); false keeps the cell a leaf.
-  bool make_sub_grid(const GridInfo& info, std::uint32_t c, std::span<const std::uint32_t> list, GridInfo& sub) const {
+  // The sub-grid cell c of `info` would hold over `list`, whose
+  // weighted_count is `weight`, if one pays (header comment: the cost
+  // model); false keeps the cell a leaf.
+  bool make_sub_grid(const GridInfo& info, std::uint32_t c, std::span<const std::uint32_t> list, double weight,
+                     GridInfo& sub) const {
     sub.bounds = tight_box(info, cell_box(info, c), list);
     const double n = double(list.size());
-    choose_adaptive_resolution(sub.bounds, double(params_.density) * weighted_count(list), kMaxSubGridResolution,
-                               sub.res);
+    choose_adaptive_resolution(sub.bounds, double(params_.density) * weight, kMaxSubGridResolution, sub.res);
     const double m = double(sub.cell_count());
     if (m < 2) return false;
     set_cell_size(sub);
@@ -1032,11 +1033,21 @@ void compute_empty_distance(Grid& grid, bool skip_empty) {
         std::uint8_t* const c = cur + row;
         const std::uint8_t* const up = c - s * px;  // the row scanned before
         const std::uint8_t* const mr = m + row;
+        // The terms from the previous plane and row first, for the whole
+        // row at once (vectorised: the row does not alias them); a
+        // minimum is at most the cap, 254, so adding one stays in a byte.
+        {
+          std::uint8_t* __restrict const cr = c;
+          const std::uint8_t* __restrict const ur = up;
+          const std::uint8_t* __restrict const mrr = mr;
+          for (int x = 0; x < rx; ++x)
+            cr[x] = std::min(cr[x], std::uint8_t(std::min({mrr[x], ur[x - 1], ur[x], ur[x + 1]}) + 1));
+        }
+        // Then the previous cell's, in scan order: min(c, before + 1).
         int before = kMaxEmptyDistance;  // the padding before the row
         for (int xi = 0; xi < rx; ++xi) {
           const int x = s > 0 ? xi : rx - 1 - xi;
-          const int near = std::min({int(mr[x]), int(up[x - 1]), int(up[x]), int(up[x + 1]), before});
-          before = std::min(int(c[x]), near + 1);  // at most the cap, 254: within a byte
+          before = std::min(int(c[x]), before + 1);
           c[x] = std::uint8_t(before);
         }
       }
