@@ -756,14 +756,16 @@ def section_accel(src):
 
 
 class CgalMeshes:
-    """The rows of a docs/scanned_meshes.sh CSV, by mesh and floor, with what both CGAL sections show: the
-    grid / Embree medians, the table's common columns and the summary lines on speed, tests and validate."""
+    """The rows of a docs/scanned_meshes.sh CSV (or docs/spd_corpus.sh's, a scene in the mesh column), by mesh
+    and floor, with what the CGAL and SPD sections show: the grid / Embree medians, the table's common columns
+    and the summary lines on speed, tests and validate."""
     FLOORS = ["0", "100", "1000"]
     FLOOR_NAME = {"0": "alone", "100": "on a 100x floor", "1000": "on a 1000x floor"}
     HEADER = ["mesh", "triangles", "grid / Embree", "on a 100x floor", "on a 1000x floor", "tests per ray",
               "grid / Embree build time", "grid / Embree memory", "validate mismatches"]
 
-    def __init__(self, name):
+    def __init__(self, name, noun="meshes"):
+        self.noun = noun  # what a row is, in the summary: meshes, or scenes
         self.meshes, self.by = [], {}
         for r in read_csv(os.path.join(RESULTS, name)):
             if r["mesh"] not in self.meshes:
@@ -797,7 +799,7 @@ class CgalMeshes:
         slower_build = [m for m in self.meshes if self.build[m] > 1.0]
         return [
             f"- Grid / Embree, one thread, the same rays (the median of the rounds): {sum(x <= 1.3 for x in alone)} "
-            f"of {len(alone)} meshes alone and {sum(x <= 1.3 for x in stadium)} of {len(stadium)} stadium variants "
+            f"of {len(alone)} {self.noun} alone and {sum(x <= 1.3 for x in stadium)} of {len(stadium)} stadium variants "
             f"within 1.3x; geometric mean {geometric_mean(alone):.2f} alone, {geometric_mean(stadium):.2f} on the "
             f"floors; the slowest against Embree is {worst[0][0]} {self.FLOOR_NAME[worst[0][1]]}, at "
             f"{worst[1]:.2f}x.",
@@ -865,6 +867,27 @@ def section_cgal_more_meshes(src):
         table(c.HEADER, body),
         "",
     ] + c.summary())
+
+
+def section_spd_corpus(src):
+    name = "spd-corpus-2core.csv"
+    c = CgalMeshes(name, "scenes")
+    body = sorted((c.row(m) for m in c.meshes), key=lambda b: float(b[2]))
+    over = [b for b in body if max(float(x) for x in b[2:5]) > 2.0]
+    return "\n".join([
+        "## Every SPD scene, alone and on stadium floors",
+        "",
+        f"The adaptive grid on the {len(c.meshes)} scenes the SPD generators make: each generator at its default "
+        "size and at a larger one, and tessellated (`-t 1`) where it has spheres or cones, each alone and on a "
+        "square floor 100x and 1000x its width (`--floor`): " + src.describe(name),
+        "",
+        table(["scene", "primitives"] + c.HEADER[2:], body),
+        "",
+    ] + c.summary() + [
+        "- Above 2.0x Embree's time, alone or on a floor: "
+        + (", ".join(f"{b[0]} ({max(float(x) for x in b[2:5]):.2f}x)" for b in over) if over else "none") + ". "
+        f"The slowest alone: {', '.join(f'{b[0]} ({b[2]}x, {b[5]} tests per ray)' for b in body[-4:][::-1])}.",
+    ])
 
 
 def section_embree_queries(src):
@@ -1691,6 +1714,8 @@ def page():
         section_cgal_meshes(src),
         "",
         section_cgal_more_meshes(src),
+        "",
+        section_spd_corpus(src),
         "",
         section_embree_queries(src),
         "",
