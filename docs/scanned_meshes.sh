@@ -28,6 +28,7 @@
 # same on every round). With SVM=off in the environment the svm renders and
 # bench nodes are skipped, and their columns stay empty.
 set -u
+here=$(dirname "$(realpath "$0")")  # corpus_csv.py beside this script
 bin=$(realpath "${1:?RAYNODE}"); dir=$(realpath -m "${2:?DIR}"); out=$(realpath -m "${3:?OUT.csv}")
 rounds=${4:?ROUNDS}
 shift 4
@@ -86,38 +87,5 @@ for m in "${meshes[@]}"; do
     rm -f "$tmp/n.json"
   done
 done
-python3 - "$raw" "$out" <<'PY'
-import csv, json, sys
-bench, extra = [], {}
-for line in open(sys.argv[1]):
-    kind, rnd, mesh, floor, j = line.rstrip("\n").split("|", 4)
-    floor = floor or "0"
-    try:
-        d = json.loads(j)
-    except ValueError:
-        continue  # a run that failed leaves no figure
-    if kind == "bench":
-        bench.append((rnd, mesh, floor, d[0]))
-    elif kind == "validate":
-        extra.setdefault((mesh, floor), {})["mismatches"] = d["mismatches"]
-        extra[(mesh, floor)]["validate_rays"] = d["rays"]
-    elif kind.startswith("nodes_"):
-        rows = {r["nodes"]: r for r in d["rows"]}
-        extra.setdefault((mesh, floor), {})[kind[6:] + "_efficiency_64"] = f"{rows[64]['efficiency']:.4f}"
-    else:
-        extra.setdefault((mesh, floor), {})[kind + "_pages_per_pixel"] = f"{d['svm']['pages_per_pixel']:.2f}"
-keys = ["mismatches", "validate_rays", "svm_adaptive_pages_per_pixel", "svm_uniform_pages_per_pixel",
-        "adaptive_efficiency_64", "uniform_efficiency_64"]
-with open(sys.argv[2], "w", newline="") as f:
-    w = csv.writer(f)
-    w.writerow(["mesh", "floor", "round", "primitives", "grid_over_embree_time", "grid_rays_per_s",
-                "embree_rays_per_s", "tests_per_ray", "cells_per_ray", "grid_build_s", "embree_build_s",
-                "grid_bytes", "embree_bytes"] + keys)
-    for rnd, mesh, floor, d in bench:
-        e = extra.get((mesh, floor), {})
-        w.writerow([mesh, floor, rnd, d["primitives"], f"{d['grid_over_embree_time']:.4f}",
-                    f"{d['grid_rays_per_s']:.0f}", f"{d['embree_rays_per_s']:.0f}", f"{d['tests_per_ray']:.2f}",
-                    f"{d['cells_per_ray']:.2f}", f"{d['grid_build_s']:.6f}", f"{d['embree_build_s']:.6f}",
-                    d["grid_bytes"], d["embree_bytes"]] + [e.get(k, "") for k in keys])
-PY
+python3 "$here/corpus_csv.py" "$raw" "$out"
 wc -l "$out"

@@ -16,6 +16,7 @@
 # scene, floor and round in docs/scanned_meshes.sh's columns (the scene in
 # the `mesh` column), its svm columns empty.
 set -u
+here=$(dirname "$(realpath "$0")")  # corpus_csv.py beside this script
 bin=$(realpath "${1:?RAYNODE}"); out=$(realpath -m "${2:?OUT.csv}"); rounds=${3:?ROUNDS}
 shift 3
 scenes=("$@")
@@ -44,31 +45,4 @@ for s in "${scenes[@]}"; do
     echo "validate|0|$s|${f#--floor }|$j" >> "$raw"
   done
 done
-python3 - "$raw" "$out" <<'PY'
-import csv, json, sys
-bench, extra = [], {}
-for line in open(sys.argv[1]):
-    kind, rnd, scene, floor, j = line.rstrip("\n").split("|", 4)
-    floor = floor or "0"
-    try:
-        d = json.loads(j)
-    except ValueError:
-        continue  # a run that failed leaves no figure
-    if kind == "bench":
-        bench.append((rnd, scene, floor, d[0]))
-    else:
-        extra[(scene, floor)] = {"mismatches": d["mismatches"], "validate_rays": d["rays"]}
-keys = ["mismatches", "validate_rays", "svm_adaptive_pages_per_pixel", "svm_uniform_pages_per_pixel",
-        "adaptive_efficiency_64", "uniform_efficiency_64"]
-with open(sys.argv[2], "w", newline="") as f:
-    w = csv.writer(f)
-    w.writerow(["mesh", "floor", "round", "primitives", "grid_over_embree_time", "grid_rays_per_s",
-                "embree_rays_per_s", "tests_per_ray", "cells_per_ray", "grid_build_s", "embree_build_s",
-                "grid_bytes", "embree_bytes"] + keys)
-    for rnd, scene, floor, d in bench:
-        e = extra.get((scene, floor), {})
-        w.writerow([scene, floor, rnd, d["primitives"], f"{d['grid_over_embree_time']:.4f}",
-                    f"{d['grid_rays_per_s']:.0f}", f"{d['embree_rays_per_s']:.0f}", f"{d['tests_per_ray']:.2f}",
-                    f"{d['cells_per_ray']:.2f}", f"{d['grid_build_s']:.6f}", f"{d['embree_build_s']:.6f}",
-                    d["grid_bytes"], d["embree_bytes"]] + [e.get(k, "") for k in keys])
-PY
+python3 "$here/corpus_csv.py" "$raw" "$out"
