@@ -238,15 +238,17 @@ class NodeTracer {
     m.t_enter = t0;
     m.tmax = t1;
     m.region = map_.region_at(ScreenRay::of(s_.frame, ray.origin, ray.direction), t0);
-    if (m.region != me_) m.origin_triangle = core::kNoPrimitive;  // a local id of this region
     route(m);
   }
 
-  void route(const RayMsg& m) {
+  /// Hands `m` to its region's owner: this node's own queue, the owner's
+  /// mailbox, the sending queue or the host (the paper's spill).
+  void route(RayMsg m) {
     if (m.region == me_) {
       push(m);
       return;
     }
+    m.origin_triangle = core::kNoPrimitive;  // an id local to this region: no other region's
     ++s_.stats.work_sent;
     if (s_.send_queue.empty() && try_send_ray(m)) return;
     // The destination is full (or rays wait before this one): the sending
@@ -317,7 +319,6 @@ class NodeTracer {
     if (next == me_) throw std::logic_error(fmt::format("node {}: a ray leaves region {} into itself", me_, me_));
     m.t_enter = t_exit;
     m.region = next;
-    m.origin_triangle = core::kNoPrimitive;  // a local id of this region
     route(m);
   }
 
